@@ -53,7 +53,10 @@ fn measure(iters: usize, mut f: impl FnMut()) -> (f64, usize) {
 }
 
 fn sum_now(t: Tensor<1>) -> f32 {
-    t.into_data().convert::<f32>().into_vec::<f32>().unwrap()[0]
+    t.into_data()
+        .convert::<f32>()
+        .try_into_vec::<f32>()
+        .unwrap()[0]
 }
 
 fn main() {
@@ -65,7 +68,11 @@ fn main() {
         .and_then(|i| args.get(i + 1))
         .map(|s| s.split(',').map(str::to_owned).collect())
         .unwrap_or_else(|| vec!["flex".into(), "ndarray".into()]);
-    let counts: &[usize] = if quick { &[10_000, 100_000] } else { &[10_000, 100_000, 1_000_000] };
+    let counts: &[usize] = if quick {
+        &[10_000, 100_000]
+    } else {
+        &[10_000, 100_000, 1_000_000]
+    };
     let sizes: &[(u32, u32)] = if quick {
         &[(256, 256), (512, 512)]
     } else {
@@ -80,6 +87,7 @@ fn main() {
     for backend in &backends {
         let device = match backend.as_str() {
             "flex" => Device::flex(),
+            #[allow(deprecated)] // served although deprecated upstream
             "ndarray" => Device::ndarray(),
             "wgpu" => Device::wgpu(Default::default()),
             other => {

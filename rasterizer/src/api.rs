@@ -47,10 +47,18 @@ impl Splats {
             return Err(shape_err("quats", format!("[{n}, 4]"), &self.quats.dims()));
         }
         if self.log_scales.dims() != [n, 3] {
-            return Err(shape_err("log_scales", format!("[{n}, 3]"), &self.log_scales.dims()));
+            return Err(shape_err(
+                "log_scales",
+                format!("[{n}, 3]"),
+                &self.log_scales.dims(),
+            ));
         }
         if self.opacity_logits.dims() != [n] {
-            return Err(shape_err("opacity_logits", format!("[{n}]"), &self.opacity_logits.dims()));
+            return Err(shape_err(
+                "opacity_logits",
+                format!("[{n}]"),
+                &self.opacity_logits.dims(),
+            ));
         }
         let [cn, k, c] = self.colors.dims();
         let expected = match settings.color {
@@ -68,7 +76,11 @@ impl Splats {
             return Err(shape_err("colors", expected, &self.colors.dims()));
         }
         if background.dims() != [c] {
-            return Err(shape_err("background", format!("[{c}]"), &background.dims()));
+            return Err(shape_err(
+                "background",
+                format!("[{c}]"),
+                &background.dims(),
+            ));
         }
         if n >= 1 << 24 {
             return Err(RasterError::Value {
@@ -127,7 +139,12 @@ pub fn rasterize(
     splats.check(&background, settings)?;
     let n = splats.len();
     let [_, _, c] = splats.colors.dims();
-    let bg_values = background.clone().into_data().convert::<f32>().into_vec::<f32>().unwrap_or_default();
+    let bg_values = background
+        .clone()
+        .into_data()
+        .convert::<f32>()
+        .try_into_vec::<f32>()
+        .unwrap_or_default();
     if bg_values.iter().any(|v| !v.is_finite()) {
         return Err(RasterError::Value {
             name: "background",

@@ -4,13 +4,13 @@
 
 use crate::backend::{SplatBackend, SplatForward, SplatInputGrads, SplatInputs, SplatSaved};
 use crate::camera::RasterSettings;
+use burn::backend::AutodiffBackend;
 use burn::backend::Backend;
 use burn::backend::autodiff::{
     Autodiff,
     checkpoint::{base::Checkpointer, strategy::CheckpointStrategy},
     grads::Gradients,
     ops::{Backward, Ops, OpsKind},
-    tensor::AutodiffTensor,
 };
 use burn::backend::tensor::FloatTensor;
 
@@ -41,11 +41,16 @@ impl<B: SplatBackend> Backward<B, 7> for SplatBackward {
     }
 }
 
-fn untracked<B: Backend>(tensor: FloatTensor<B>) -> AutodiffTensor<B> {
-    AutodiffTensor::new(tensor)
+/// Lifts an inner-backend tensor into autodiff as a constant (no gradient).
+fn untracked<B: Backend, C: CheckpointStrategy>(
+    tensor: FloatTensor<B>,
+) -> FloatTensor<Autodiff<B, C>> {
+    <Autodiff<B, C> as AutodiffBackend>::from_inner(tensor)
 }
 
-fn inner_inputs<B: Backend>(inputs: &SplatInputs<Autodiff<B, impl CheckpointStrategy>>) -> SplatInputs<B> {
+fn inner_inputs<B: Backend>(
+    inputs: &SplatInputs<Autodiff<B, impl CheckpointStrategy>>,
+) -> SplatInputs<B> {
     SplatInputs {
         means: inputs.means.primitive().clone(),
         quats: inputs.quats.primitive().clone(),
@@ -78,9 +83,9 @@ impl<B: SplatBackend, C: CheckpointStrategy> SplatBackend for Autodiff<B, C> {
         SplatForward {
             image,
             saved: SplatSaved {
-                projected: untracked::<B>(saved.projected),
-                final_transmittance: untracked::<B>(saved.final_transmittance),
-                contributors: untracked::<B>(saved.contributors),
+                projected: untracked::<B, C>(saved.projected),
+                final_transmittance: untracked::<B, C>(saved.final_transmittance),
+                contributors: untracked::<B, C>(saved.contributors),
             },
         }
     }
@@ -103,13 +108,13 @@ impl<B: SplatBackend, C: CheckpointStrategy> SplatBackend for Autodiff<B, C> {
             settings,
         );
         SplatInputGrads {
-            means: untracked::<B>(g.means),
-            quats: untracked::<B>(g.quats),
-            log_scales: untracked::<B>(g.log_scales),
-            opacity_logits: untracked::<B>(g.opacity_logits),
-            colors: untracked::<B>(g.colors),
-            background: untracked::<B>(g.background),
-            screen_offsets: untracked::<B>(g.screen_offsets),
+            means: untracked::<B, C>(g.means),
+            quats: untracked::<B, C>(g.quats),
+            log_scales: untracked::<B, C>(g.log_scales),
+            opacity_logits: untracked::<B, C>(g.opacity_logits),
+            colors: untracked::<B, C>(g.colors),
+            background: untracked::<B, C>(g.background),
+            screen_offsets: untracked::<B, C>(g.screen_offsets),
         }
     }
 }

@@ -3,6 +3,7 @@
 //!
 //! Every tensor crossing this boundary has a shape fixed by its inputs (so Fusion can describe
 //! outputs lazily): data-dependent state such as tile lists is rebuilt inside each call.
+#![allow(deprecated)] // burn-ndarray is deprecated upstream but is a backend this project serves.
 
 use crate::camera::RasterSettings;
 use burn::backend::fusion::custom::TensorSpec;

@@ -92,7 +92,9 @@ impl Camera {
         ];
         for (name, value) in finite {
             if !value.is_finite() {
-                return Err(RasterError::Camera(format!("{name} = {value} is not finite")));
+                return Err(RasterError::Camera(format!(
+                    "{name} = {value} is not finite"
+                )));
             }
         }
         if self.fx <= 0.0 || self.fy <= 0.0 {
@@ -119,7 +121,12 @@ impl Camera {
                 self.near, self.far
             )));
         }
-        if self.world_to_camera.iter().flatten().any(|v| !v.is_finite()) {
+        if self
+            .world_to_camera
+            .iter()
+            .flatten()
+            .any(|v| !v.is_finite())
+        {
             return Err(RasterError::Camera(
                 "world_to_camera holds a non-finite value".into(),
             ));

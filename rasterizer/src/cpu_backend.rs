@@ -11,7 +11,7 @@ fn host<B: Backend>(tensor: FloatTensor<B>) -> Vec<f32> {
     burn::tensor::read_sync(B::float_into_data(tensor))
         .expect("reading a CPU tensor cannot fail")
         .convert::<f32>()
-        .into_vec::<f32>()
+        .try_into_vec::<f32>()
         .expect("converted to f32")
 }
 
@@ -131,7 +131,15 @@ pub fn backward<B: Backend>(
         &contributors,
         &grad_image,
     );
-    let [means, quats, log_scales, opacity_logits, colors, background, screen_offsets] = shapes;
+    let [
+        means,
+        quats,
+        log_scales,
+        opacity_logits,
+        colors,
+        background,
+        screen_offsets,
+    ] = shapes;
     let s = grads.splats;
     SplatInputGrads {
         means: device_tensor::<B>(s.means, means, &device),
@@ -147,7 +155,10 @@ pub fn backward<B: Backend>(
 macro_rules! cpu_splat_backend {
     ($backend:ty) => {
         impl SplatBackend for $backend {
-            fn splat_forward(inputs: SplatInputs<Self>, settings: RasterSettings) -> SplatForward<Self> {
+            fn splat_forward(
+                inputs: SplatInputs<Self>,
+                settings: RasterSettings,
+            ) -> SplatForward<Self> {
                 forward::<Self>(inputs, settings)
             }
 

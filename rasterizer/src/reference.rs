@@ -12,7 +12,13 @@ use burn::tensor::Tensor;
 
 const SH_C0: f32 = 0.282_094_8;
 const SH_C1: f32 = 0.488_602_5;
-const SH_C2: [f32; 5] = [1.092_548_4, -1.092_548_4, 0.315_391_6, -1.092_548_4, 0.546_274_2];
+const SH_C2: [f32; 5] = [
+    1.092_548_4,
+    -1.092_548_4,
+    0.315_391_6,
+    -1.092_548_4,
+    0.546_274_2,
+];
 const SH_C3: [f32; 7] = [
     -0.590_043_6,
     2.890_611_4,
@@ -38,7 +44,11 @@ fn sh_basis(degree: u32, x: &Tensor<1>, y: &Tensor<1>, z: &Tensor<1>) -> Vec<Ten
         b.push(x.clone() * -SH_C1);
     }
     if degree >= 2 {
-        let (xx, yy, zz) = (x.clone() * x.clone(), y.clone() * y.clone(), z.clone() * z.clone());
+        let (xx, yy, zz) = (
+            x.clone() * x.clone(),
+            y.clone() * y.clone(),
+            z.clone() * z.clone(),
+        );
         b.push(x.clone() * y.clone() * SH_C2[0]);
         b.push(y.clone() * z.clone() * SH_C2[1]);
         b.push((zz.clone() * 2.0 - xx.clone() - yy.clone()) * SH_C2[2]);
@@ -69,7 +79,12 @@ pub fn render(splats: &Splats, background: Tensor<1>, settings: &RasterSettings)
     // World → camera.
     let m: Vec<Tensor<1>> = (0..3).map(|j| column(&splats.means, j)).collect();
     let p: Vec<Tensor<1>> = (0..3)
-        .map(|r| m[0].clone() * rot[r][0] + m[1].clone() * rot[r][1] + m[2].clone() * rot[r][2] + rot[r][3])
+        .map(|r| {
+            m[0].clone() * rot[r][0]
+                + m[1].clone() * rot[r][1]
+                + m[2].clone() * rot[r][2]
+                + rot[r][3]
+        })
         .collect();
     let (x, y, z) = (p[0].clone(), p[1].clone(), p[2].clone());
 
@@ -94,14 +109,20 @@ pub fn render(splats: &Splats, background: Tensor<1>, settings: &RasterSettings)
             (qx.clone() * qx.clone() + qy.clone() * qy.clone()) * -2.0 + 1.0,
         ],
     ];
-    let s: Vec<Tensor<1>> = (0..3).map(|j| column(&splats.log_scales, j).exp()).collect();
+    let s: Vec<Tensor<1>> = (0..3)
+        .map(|j| column(&splats.log_scales, j).exp())
+        .collect();
     let mm: Vec<Vec<Tensor<1>>> = (0..3)
         .map(|i| (0..3).map(|j| r[i][j].clone() * s[j].clone()).collect())
         .collect();
     let cov_world = |i: usize, j: usize| {
-        mm[i][0].clone() * mm[j][0].clone() + mm[i][1].clone() * mm[j][1].clone() + mm[i][2].clone() * mm[j][2].clone()
+        mm[i][0].clone() * mm[j][0].clone()
+            + mm[i][1].clone() * mm[j][1].clone()
+            + mm[i][2].clone() * mm[j][2].clone()
     };
-    let cw: Vec<Vec<Tensor<1>>> = (0..3).map(|i| (0..3).map(|j| cov_world(i, j)).collect()).collect();
+    let cw: Vec<Vec<Tensor<1>>> = (0..3)
+        .map(|i| (0..3).map(|j| cov_world(i, j)).collect())
+        .collect();
     let cov_cam = |i: usize, j: usize| {
         let mut acc = x.zeros_like();
         for a in 0..3 {
@@ -111,18 +132,30 @@ pub fn render(splats: &Splats, background: Tensor<1>, settings: &RasterSettings)
         }
         acc
     };
-    let cc: Vec<Vec<Tensor<1>>> = (0..3).map(|i| (0..3).map(|j| cov_cam(i, j)).collect()).collect();
+    let cc: Vec<Vec<Tensor<1>>> = (0..3)
+        .map(|i| (0..3).map(|j| cov_cam(i, j)).collect())
+        .collect();
 
     // EWA Jacobian with the 1.3× field-of-view clamp.
     let (wf, hf) = (w as f32, h as f32);
     let tan_x = 0.5 * wf / cam.fx;
     let tan_y = 0.5 * hf / cam.fy;
-    let tx = (x.clone() / z.clone()).clamp(-(cam.cx / cam.fx + 0.3 * tan_x), (wf - cam.cx) / cam.fx + 0.3 * tan_x) * z.clone();
-    let ty = (y.clone() / z.clone()).clamp(-(cam.cy / cam.fy + 0.3 * tan_y), (hf - cam.cy) / cam.fy + 0.3 * tan_y) * z.clone();
+    let tx = (x.clone() / z.clone()).clamp(
+        -(cam.cx / cam.fx + 0.3 * tan_x),
+        (wf - cam.cx) / cam.fx + 0.3 * tan_x,
+    ) * z.clone();
+    let ty = (y.clone() / z.clone()).clamp(
+        -(cam.cy / cam.fy + 0.3 * tan_y),
+        (hf - cam.cy) / cam.fy + 0.3 * tan_y,
+    ) * z.clone();
     let z2 = z.clone() * z.clone();
     let zero = x.zeros_like();
     let jac = [
-        [z.clone().recip() * cam.fx, zero.clone(), tx / z2.clone() * -cam.fx],
+        [
+            z.clone().recip() * cam.fx,
+            zero.clone(),
+            tx / z2.clone() * -cam.fx,
+        ],
         [zero, z.clone().recip() * cam.fy, ty / z2 * -cam.fy],
     ];
     let cov2 = |a: usize, b: usize| {
@@ -153,11 +186,23 @@ pub fn render(splats: &Splats, background: Tensor<1>, settings: &RasterSettings)
         ColorMode::Sh { degree } => {
             let pos = cam.position();
             let d: Vec<Tensor<1>> = (0..3).map(|j| m[j].clone() - pos[j]).collect();
-            let len = (d[0].clone().powi_scalar(2) + d[1].clone().powi_scalar(2) + d[2].clone().powi_scalar(2)).sqrt();
-            let basis = sh_basis(degree, &(d[0].clone() / len.clone()), &(d[1].clone() / len.clone()), &(d[2].clone() / len));
+            let len = (d[0].clone().powi_scalar(2)
+                + d[1].clone().powi_scalar(2)
+                + d[2].clone().powi_scalar(2))
+            .sqrt();
+            let basis = sh_basis(
+                degree,
+                &(d[0].clone() / len.clone()),
+                &(d[1].clone() / len.clone()),
+                &(d[2].clone() / len),
+            );
             let mut acc = Tensor::<2>::zeros([n, channels], &device) + 0.5;
             for (k, b) in basis.into_iter().enumerate() {
-                let coeff = splats.colors.clone().slice([0..n, k..k + 1, 0..channels]).reshape([n, channels]);
+                let coeff = splats
+                    .colors
+                    .clone()
+                    .slice([0..n, k..k + 1, 0..channels])
+                    .reshape([n, channels]);
                 acc = acc + coeff * b.reshape([n, 1]);
             }
             let _ = k_stored;
@@ -168,11 +213,17 @@ pub fn render(splats: &Splats, background: Tensor<1>, settings: &RasterSettings)
     // Every splat against every pixel centre: [N, P].
     let pixels = h * w;
     let px = Tensor::<1>::from_floats(
-        (0..pixels).map(|i| (i % w) as f32 + 0.5).collect::<Vec<_>>().as_slice(),
+        (0..pixels)
+            .map(|i| (i % w) as f32 + 0.5)
+            .collect::<Vec<_>>()
+            .as_slice(),
         &device,
     );
     let py = Tensor::<1>::from_floats(
-        (0..pixels).map(|i| (i / w) as f32 + 0.5).collect::<Vec<_>>().as_slice(),
+        (0..pixels)
+            .map(|i| (i / w) as f32 + 0.5)
+            .collect::<Vec<_>>()
+            .as_slice(),
         &device,
     );
     let dx = px.reshape([1, pixels]) - u.reshape([n, 1]);
@@ -180,9 +231,11 @@ pub fn render(splats: &Splats, background: Tensor<1>, settings: &RasterSettings)
     let [ka, kb, kc] = conic.map(|t| t.reshape([n, 1]));
     let sigma = (dx.clone() * dx.clone() * ka + dy.clone() * dy.clone() * kc) * 0.5 + dx * dy * kb;
     let clip = 0.5 * settings.clip_sigmas * settings.clip_sigmas;
-    let inside = sigma.clone().greater_equal_elem(0.0).float() * sigma.clone().lower_equal_elem(clip).float();
+    let inside = sigma.clone().greater_equal_elem(0.0).float()
+        * sigma.clone().lower_equal_elem(clip).float();
     let alpha = (sigma.neg().exp() * opacity.reshape([n, 1])).clamp_max(ALPHA_MAX as f32);
-    let alpha = alpha.clone() * inside * alpha.clone().greater_equal_elem(settings.alpha_min).float();
+    let alpha =
+        alpha.clone() * inside * alpha.clone().greater_equal_elem(settings.alpha_min).float();
 
     // Global front-to-back order.
     let order = z.clone().argsort(0);
@@ -200,7 +253,11 @@ pub fn render(splats: &Splats, background: Tensor<1>, settings: &RasterSettings)
     let t_final = log_keep.sum_dim(0).exp(); // [1, P]
 
     let wt = weights.transpose(); // [P, N]
-    let color = wt.clone().matmul(colors) + t_final.clone().transpose().matmul(background.reshape([1, channels]));
+    let color = wt.clone().matmul(colors)
+        + t_final
+            .clone()
+            .transpose()
+            .matmul(background.reshape([1, channels]));
     let alpha_out = t_final.clone().transpose().neg() + 1.0;
     let depth_out = wt.matmul(depth.reshape([n, 1]));
     Tensor::cat(vec![color, alpha_out, depth_out], 1).reshape([h, w, channels + 2])

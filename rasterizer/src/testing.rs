@@ -50,7 +50,14 @@ impl SceneSpec {
 
 /// A camera 4 units from the origin looking at it, 60° horizontal field of view.
 pub fn default_camera(width: u32, height: u32) -> Camera {
-    Camera::look_at([0.4, -0.3, -4.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 60.0, width, height)
+    Camera::look_at(
+        [0.4, -0.3, -4.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        60.0,
+        width,
+        height,
+    )
 }
 
 /// Splats uniformly in a cube of side 2 around the origin, with random rotations, scales,
@@ -120,22 +127,33 @@ impl HostScene {
     }
 
     /// The scene as tensors on `device`.
-    pub fn tensors(&self, device: &burn::tensor::Device) -> (crate::Splats, burn::tensor::Tensor<1>) {
+    pub fn tensors(
+        &self,
+        device: &burn::tensor::Device,
+    ) -> (crate::Splats, burn::tensor::Tensor<1>) {
         use burn::tensor::{Tensor, TensorData};
         let n = self.count;
-        let t2 = |v: &[f32], d: usize| Tensor::<2>::from_data(TensorData::new(v.to_vec(), [n, d]), device);
+        let t2 = |v: &[f32], d: usize| {
+            Tensor::<2>::from_data(TensorData::new(v.to_vec(), [n, d]), device)
+        };
         (
             crate::Splats {
                 means: t2(&self.means, 3),
                 quats: t2(&self.quats, 4),
                 log_scales: t2(&self.log_scales, 3),
-                opacity_logits: Tensor::<1>::from_data(TensorData::new(self.opacity_logits.clone(), [n]), device),
+                opacity_logits: Tensor::<1>::from_data(
+                    TensorData::new(self.opacity_logits.clone(), [n]),
+                    device,
+                ),
                 colors: Tensor::<3>::from_data(
                     TensorData::new(self.colors.clone(), [n, self.coeffs, self.channels]),
                     device,
                 ),
             },
-            Tensor::<1>::from_data(TensorData::new(self.background.clone(), [self.channels]), device),
+            Tensor::<1>::from_data(
+                TensorData::new(self.background.clone(), [self.channels]),
+                device,
+            ),
         )
     }
 }

@@ -9,6 +9,7 @@ use rand::{Rng, SeedableRng, rngs::StdRng};
 use splatzoo_rasterizer::testing::{SceneSpec, random_scene};
 use splatzoo_rasterizer::{ColorMode, RasterMode, reference};
 
+#[allow(deprecated)] // NdArray is deprecated upstream; we still serve it.
 fn devices() -> Vec<(&'static str, Device)> {
     vec![("flex", Device::flex()), ("ndarray", Device::ndarray())]
 }
@@ -19,13 +20,18 @@ fn forward_matches_reference_with_inria_cutoffs() {
         for (seed, color) in [(11, ColorMode::Sh { degree: 3 }), (12, ColorMode::Features)] {
             let (scene, settings) = random_scene(seed, &SceneSpec::new(40, 37, 29, color));
             let (splats, bg) = scene.tensors(&device);
-            let op = packed(&splatzoo_rasterizer::rasterize(&splats, bg.clone(), &settings).unwrap());
+            let op =
+                packed(&splatzoo_rasterizer::rasterize(&splats, bg.clone(), &settings).unwrap());
             let expected = values(reference::render(&splats, bg, &settings));
             let actual = values(op);
             let err = relative_error(&actual, &expected);
             // Alpha thresholds may flip on rounding, a few 1/255-sized changes at most.
             assert!(err < 1e-2, "{name} seed {seed}: relative error {err}");
-            let mean: f32 = actual.iter().zip(&expected).map(|(a, b)| (a - b).abs()).sum::<f32>()
+            let mean: f32 = actual
+                .iter()
+                .zip(&expected)
+                .map(|(a, b)| (a - b).abs())
+                .sum::<f32>()
                 / actual.len() as f32;
             assert!(mean < 1e-4, "{name} seed {seed}: mean abs error {mean}");
         }
@@ -47,10 +53,15 @@ fn forward_and_gradients_match_reference_autodiff() {
             settings.alpha_min = 0.0;
             settings.clip_sigmas = 6.0;
             settings.mode = mode;
-            let [h, w] = [settings.camera.height as usize, settings.camera.width as usize];
+            let [h, w] = [
+                settings.camera.height as usize,
+                settings.camera.width as usize,
+            ];
             let c = scene.channels;
             let mut rng = StdRng::seed_from_u64(seed);
-            let weights: Vec<f32> = (0..h * w * (c + 2)).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let weights: Vec<f32> = (0..h * w * (c + 2))
+                .map(|_| rng.random_range(-1.0..1.0))
+                .collect();
             let weights = Tensor::<3>::from_data(TensorData::new(weights, [h, w, c + 2]), &device);
 
             let ours = leaves(&scene, &device);
@@ -62,11 +73,24 @@ fn forward_and_gradients_match_reference_autodiff() {
             let ref_grads = (ref_image.clone() * weights).sum().backward();
 
             let err = relative_error(&values(image), &values(ref_image));
-            assert!(err < 1e-4, "{name} seed {seed}: forward relative error {err}");
-            for ((field, a), (_, b)) in ours.grads(&ours_grads).into_iter().zip(theirs.grads(&ref_grads)) {
+            assert!(
+                err < 1e-4,
+                "{name} seed {seed}: forward relative error {err}"
+            );
+            for ((field, a), (_, b)) in ours
+                .grads(&ours_grads)
+                .into_iter()
+                .zip(theirs.grads(&ref_grads))
+            {
                 let err = relative_error(&a, &b);
-                assert!(err < 3e-3, "{name} seed {seed} {mode:?}: d/d{field} relative error {err}");
-                assert!(a.iter().all(|v| v.is_finite()), "{name}: {field} gradient not finite");
+                assert!(
+                    err < 3e-3,
+                    "{name} seed {seed} {mode:?}: d/d{field} relative error {err}"
+                );
+                assert!(
+                    a.iter().all(|v| v.is_finite()),
+                    "{name}: {field} gradient not finite"
+                );
             }
         }
     }

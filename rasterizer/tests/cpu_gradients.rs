@@ -36,7 +36,9 @@ fn check(seed: u64, color: ColorMode, mode: RasterMode) {
 
     let fwd = cpu::forward(&scene.splats(), &scene.background, &settings);
     assert!(
-        fwd.projected.chunks(cpu::proj_stride(scene.channels)).any(|r| r[cpu::PROJ_RADIUS] > 0.0),
+        fwd.projected
+            .chunks(cpu::proj_stride(scene.channels))
+            .any(|r| r[cpu::PROJ_RADIUS] > 0.0),
         "scene must have visible splats"
     );
     let grads = cpu::backward(
@@ -60,8 +62,7 @@ fn check(seed: u64, color: ColorMode, mode: RasterMode) {
     let h = 1e-6;
     let mut worst = 0.0f64;
     for (b, (name, expected)) in analytic.iter().enumerate() {
-        let len = expected.len();
-        for i in 0..len {
+        for (i, &analytic_i) in expected.iter().enumerate() {
             let original = scene.buffers_mut()[b].1[i];
             scene.buffers_mut()[b].1[i] = original + h;
             let up = loss(&scene, &settings, &weights);
@@ -69,7 +70,7 @@ fn check(seed: u64, color: ColorMode, mode: RasterMode) {
             let down = loss(&scene, &settings, &weights);
             scene.buffers_mut()[b].1[i] = original;
             let fd = (up - down) / (2.0 * h);
-            let err = (fd - expected[i]).abs() / (1.0 + fd.abs());
+            let err = (fd - analytic_i).abs() / (1.0 + fd.abs());
             worst = worst.max(err);
             assert!(
                 err < 1e-5,

@@ -11,10 +11,16 @@ use splatzoo_rasterizer::{ColorMode, Splats, rasterize};
 
 #[test]
 fn cpu_path_is_deterministic_across_thread_counts() {
-    let (host, settings) = random_scene(5, &SceneSpec::new(3000, 211, 130, ColorMode::Sh { degree: 3 }));
+    let (host, settings) = random_scene(
+        5,
+        &SceneSpec::new(3000, 211, 130, ColorMode::Sh { degree: 3 }),
+    );
     let scene = host.to_real::<f32>();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let fwd = cpu::forward(&scene.splats(), &scene.background, &settings);
             let grad_image: Vec<f32> = fwd.image.iter().map(|v| v.sin()).collect();
@@ -31,11 +37,16 @@ fn cpu_path_is_deterministic_across_thread_counts() {
         })
     };
     let first = run(1);
-    assert!(first.0.iter().any(|&v| v != first.0[0]), "image must not be flat");
+    assert!(
+        first.0.iter().any(|&v| v != first.0[0]),
+        "image must not be flat"
+    );
     for threads in [1, 2, 3, 7] {
         let again = run(threads);
-        assert!(first.0 == again.0 && first.1 == again.1 && first.2 == again.2 && first.3 == again.3,
-            "{threads} threads gave a different result");
+        assert!(
+            first.0 == again.0 && first.1 == again.1 && first.2 == again.2 && first.3 == again.3,
+            "{threads} threads gave a different result"
+        );
     }
 }
 
@@ -43,7 +54,7 @@ fn cpu_path_is_deterministic_across_thread_counts() {
 /// module would, using first-order rotation (I + [ω]×) for brevity.
 fn refined(splats: &Splats, omega: &Tensor<1>, delta: &Tensor<1>) -> Splats {
     let n = splats.len();
-    let w: Vec<Tensor<1>> = (0..3).map(|i| omega.clone().slice([i..i + 1])).collect();
+    let w: Vec<Tensor<1>> = (0..3).map(|i| omega.clone().slice(i..i + 1)).collect();
     let m = splats.means.clone();
     let col = |j: usize| m.clone().slice([0..n, j..j + 1]);
     // ω × x
@@ -64,11 +75,10 @@ fn refined(splats: &Splats, omega: &Tensor<1>, delta: &Tensor<1>) -> Splats {
 #[test]
 fn camera_pose_gradient_flows_through_burn_ops() {
     let device = Device::flex().autodiff();
-    let (host, settings) = random_scene(8, &SceneSpec::new(60, 48, 36, ColorMode::Sh { degree: 1 }));
+    let (host, settings) =
+        random_scene(8, &SceneSpec::new(60, 48, 36, ColorMode::Sh { degree: 1 }));
     let (splats, bg) = host.tensors(&device);
-    let target = values(
-        rasterize(&splats, bg.clone(), &settings).unwrap().color,
-    );
+    let target = values(rasterize(&splats, bg.clone(), &settings).unwrap().color);
     let target = Tensor::<3>::from_data(TensorData::new(target, [36, 48, 3]), &device);
     let loss_at = |omega: [f32; 3], delta: [f32; 3]| {
         let omega = Tensor::<1>::from_floats(omega, &device).require_grad();
@@ -82,16 +92,29 @@ fn camera_pose_gradient_flows_through_burn_ops() {
     let g_delta = values(delta.grad(&grads).expect("pose translation gradient"));
     let g_omega = values(omega.grad(&grads).expect("pose rotation gradient"));
     assert!(g_delta.iter().chain(&g_omega).all(|v| v.is_finite()));
-    assert!(g_delta.iter().map(|v| v.abs()).sum::<f32>() > 1e-3, "translation gradient is zero");
-    assert!(g_omega.iter().map(|v| v.abs()).sum::<f32>() > 1e-3, "rotation gradient is zero");
+    assert!(
+        g_delta.iter().map(|v| v.abs()).sum::<f32>() > 1e-3,
+        "translation gradient is zero"
+    );
+    assert!(
+        g_omega.iter().map(|v| v.abs()).sum::<f32>() > 1e-3,
+        "rotation gradient is zero"
+    );
     // The gradient agrees in direction with a finite difference along itself.
     let h = 2e-3;
     let norm = g_delta.iter().map(|v| v * v).sum::<f32>().sqrt();
     let step: Vec<f32> = g_delta.iter().map(|v| v / norm * h).collect();
     let eval = |sign: f32| {
-        let d = [0.03 + sign * step[0], -0.02 + sign * step[1], 0.01 + sign * step[2]];
+        let d = [
+            0.03 + sign * step[0],
+            -0.02 + sign * step[1],
+            0.01 + sign * step[2],
+        ];
         values(loss_at([0.01, -0.02, 0.015], d).0)[0]
     };
     let fd = (eval(1.0) - eval(-1.0)) / (2.0 * h);
-    assert!((fd - norm).abs() < 0.1 * norm, "directional derivative {fd} vs gradient norm {norm}");
+    assert!(
+        (fd - norm).abs() < 0.1 * norm,
+        "directional derivative {fd} vs gradient norm {norm}"
+    );
 }

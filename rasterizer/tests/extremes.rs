@@ -17,7 +17,10 @@ fn base(n: usize) -> (HostScene, RasterSettings) {
 }
 
 /// Renders, backpropagates a loss touching every output, and checks everything is finite.
-fn render_finite(scene: &HostScene, settings: &RasterSettings) -> (Render, Vec<(&'static str, Vec<f32>)>) {
+fn render_finite(
+    scene: &HostScene,
+    settings: &RasterSettings,
+) -> (Render, Vec<(&'static str, Vec<f32>)>) {
     let device = device();
     let l = leaves(scene, &device);
     let r = render(&l, settings);
@@ -33,7 +36,10 @@ fn render_finite(scene: &HostScene, settings: &RasterSettings) -> (Render, Vec<(
     }
     let g = l.grads(&grads);
     for (name, values) in &g {
-        assert!(values.iter().all(|v| v.is_finite()), "gradient of {name} not finite: {values:?}");
+        assert!(
+            values.iter().all(|v| v.is_finite()),
+            "gradient of {name} not finite: {values:?}"
+        );
     }
     (r, g)
 }
@@ -51,7 +57,10 @@ fn tiny_and_huge_scales_stay_finite() {
             set_all(&mut scene.log_scales, scale.ln());
             let (r, _) = render_finite(&scene, &settings);
             let radii = values(r.radii);
-            assert!(radii.iter().any(|&v| v > 0.0), "scale {scale}: some splat should be visible");
+            assert!(
+                radii.iter().any(|&v| v > 0.0),
+                "scale {scale}: some splat should be visible"
+            );
         }
     }
 }
@@ -84,7 +93,10 @@ fn saturated_opacity_logits() {
         let (r, _) = render_finite(&scene, &settings);
         let alpha = values(r.alpha);
         if logit < 0.0 {
-            assert!(alpha.iter().all(|&a| a == 0.0), "opacity ~0 must leave the image empty");
+            assert!(
+                alpha.iter().all(|&a| a == 0.0),
+                "opacity ~0 must leave the image empty"
+            );
         } else {
             assert!(alpha.iter().any(|&a| a > 0.9));
         }
@@ -110,6 +122,16 @@ fn splats_behind_on_near_plane_and_far_outside_are_culled() {
     for (i, p) in points.iter().enumerate() {
         scene.means[3 * i..3 * i + 3].copy_from_slice(p);
     }
+    let (out, _) = render_finite(&scene, &settings);
+    let radii = values(out.radii);
+    // The near-plane splat lands a rounding error either side of the plane: it only has to stay
+    // finite (checked above); the others must be culled.
+    assert_eq!(
+        [radii[0], radii[2], radii[3]],
+        [0.0; 3],
+        "culled: {radii:?}"
+    );
+    scene.means[3..6].copy_from_slice(&world_at(0.0, 0.0, 0.5 * cam.near));
     let (out, grads) = render_finite(&scene, &settings);
     assert_eq!(values(out.radii), vec![0.0; 4], "all culled");
     assert!(values(out.alpha).iter().all(|&a| a == 0.0));
@@ -122,7 +144,10 @@ fn splats_behind_on_near_plane_and_far_outside_are_culled() {
     }
     for (name, g) in grads {
         if name != "background" {
-            assert!(g.iter().all(|&v| v == 0.0), "culled splats get zero {name} gradient");
+            assert!(
+                g.iter().all(|&v| v == 0.0),
+                "culled splats get zero {name} gradient"
+            );
         }
     }
 }
@@ -146,7 +171,10 @@ fn one_splat_covering_the_whole_image() {
     scene.means.copy_from_slice(&[0.0, 0.0, 0.0]);
     set_all(&mut scene.log_scales, 20.0f32.ln());
     let (r, _) = render_finite(&scene, &settings);
-    assert!(values(r.alpha).iter().all(|&a| a > 0.05), "every pixel covered");
+    assert!(
+        values(r.alpha).iter().all(|&a| a > 0.05),
+        "every pixel covered"
+    );
 }
 
 #[test]
@@ -167,10 +195,22 @@ fn non_finite_splats_are_culled_not_spread() {
     scene.log_scales[6] = f32::NEG_INFINITY;
     scene.opacity_logits[3] = f32::NAN;
     scene.colors[scene.coeffs * 3 * 4] = f32::NAN;
+    scene.means[15..18].copy_from_slice(&[0.0, 0.0, 0.0]);
     let (r, _) = render_finite(&scene, &settings);
     let radii = values(r.radii);
     assert_eq!(&radii[..5], &[0.0; 5], "splats 0-4 hold non-finite values");
-    assert!(radii[5] > 0.0 || radii[5] == 0.0);
+    // The poisoned splats contribute nothing: the image is that of splat 5 alone.
+    let mut alone = scene.clone();
+    alone.count = 1;
+    alone.means = scene.means[15..18].to_vec();
+    alone.quats = scene.quats[20..24].to_vec();
+    alone.log_scales = scene.log_scales[15..18].to_vec();
+    alone.opacity_logits = scene.opacity_logits[5..6].to_vec();
+    let k = scene.coeffs * 3;
+    alone.colors = scene.colors[5 * k..6 * k].to_vec();
+    let (single, _) = render_finite(&alone, &settings);
+    assert!(values(single.radii)[0] > 0.0, "splat 5 is visible");
+    assert_eq!(values(r.color), values(single.color));
 }
 
 #[test]
@@ -182,12 +222,18 @@ fn bad_inputs_are_clear_errors() {
     let mut bad = settings;
     bad.camera.fx = f32::NAN;
     let err = rasterize(&splats, bg.clone(), &bad).unwrap_err();
-    assert!(matches!(err, RasterError::Camera(_)) && err.to_string().contains("fx"), "{err}");
+    assert!(
+        matches!(err, RasterError::Camera(_)) && err.to_string().contains("fx"),
+        "{err}"
+    );
 
     let mut wrong = splats.clone();
     wrong.quats = Tensor::<2>::zeros([3, 3], &device);
     let err = rasterize(&wrong, bg.clone(), &settings).unwrap_err();
-    assert!(err.to_string().contains("quats") && err.to_string().contains("[3, 4]"), "{err}");
+    assert!(
+        err.to_string().contains("quats") && err.to_string().contains("[3, 4]"),
+        "{err}"
+    );
 
     let nan_bg = Tensor::<1>::from_data(TensorData::new(vec![0.0f32, f32::NAN, 0.0], [3]), &device);
     let err = rasterize(&splats, nan_bg, &settings).unwrap_err();
@@ -196,5 +242,8 @@ fn bad_inputs_are_clear_errors() {
     let mut sh4 = settings;
     sh4.color = ColorMode::Sh { degree: 3 };
     let err = rasterize(&splats, bg, &sh4).unwrap_err();
-    assert!(err.to_string().contains("colors") && err.to_string().contains("16"), "{err}");
+    assert!(
+        err.to_string().contains("colors") && err.to_string().contains("16"),
+        "{err}"
+    );
 }

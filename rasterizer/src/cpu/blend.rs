@@ -131,7 +131,8 @@ pub fn blend_forward<T: Real>(
                                 break;
                             }
                             let w = alpha * t;
-                            let row = &projected[s.splat * stride + PROJ_COLOR..(s.splat + 1) * stride];
+                            let row =
+                                &projected[s.splat * stride + PROJ_COLOR..(s.splat + 1) * stride];
                             for (c, v) in color.iter_mut().zip(row) {
                                 *c = *c + *v * w;
                             }
@@ -208,7 +209,8 @@ pub fn blend_backward<T: Real>(
                         let px = T::of(x as f64 + 0.5);
                         let p = y * width + x;
                         let g = &grad_image[p * out_ch..(p + 1) * out_ch];
-                        let (g_color, g_alpha, g_depth) = (&g[..channels], g[channels], g[channels + 1]);
+                        let (g_color, g_alpha, g_depth) =
+                            (&g[..channels], g[channels], g[channels + 1]);
                         let t_final = final_transmittance[p];
                         for ch in 0..channels {
                             grad_bg[ch] = grad_bg[ch] + g_color[ch] * t_final;
@@ -219,19 +221,22 @@ pub fn blend_backward<T: Real>(
                         for j in (0..contributors[p] as usize).rev() {
                             let s = &local[j];
                             let (sigma, dx, dy) = falloff(s, px, py);
-                            let Some((alpha, falloff_value, unclamped)) = cut.alpha(s, sigma) else {
+                            let Some((alpha, falloff_value, unclamped)) = cut.alpha(s, sigma)
+                            else {
                                 continue;
                             };
                             let one_minus = T::one() - alpha;
                             let t_i = t / one_minus;
                             let w = alpha * t_i;
                             let out = &mut grads[(base + j) * stride..(base + j + 1) * stride];
-                            let color = &projected[s.splat * stride + PROJ_COLOR..(s.splat + 1) * stride];
+                            let color =
+                                &projected[s.splat * stride + PROJ_COLOR..(s.splat + 1) * stride];
                             let mut dl_dalpha = g_alpha * t_final / one_minus
                                 + g_depth * (s.depth * t_i - acc_depth / one_minus);
                             for ch in 0..channels {
                                 out[PROJ_COLOR + ch] = out[PROJ_COLOR + ch] + g_color[ch] * w;
-                                dl_dalpha = dl_dalpha + g_color[ch] * (color[ch] * t_i - acc[ch] / one_minus);
+                                dl_dalpha = dl_dalpha
+                                    + g_color[ch] * (color[ch] * t_i - acc[ch] / one_minus);
                                 acc[ch] = acc[ch] + color[ch] * w;
                             }
                             out[PROJ_DEPTH] = out[PROJ_DEPTH] + g_depth * w;
@@ -244,7 +249,8 @@ pub fn blend_backward<T: Real>(
                                 let [a, b, c] = s.conic;
                                 out[PROJ_CONIC] = out[PROJ_CONIC] + g_sigma * half * dx * dx;
                                 out[PROJ_CONIC + 1] = out[PROJ_CONIC + 1] + g_sigma * dx * dy;
-                                out[PROJ_CONIC + 2] = out[PROJ_CONIC + 2] + g_sigma * half * dy * dy;
+                                out[PROJ_CONIC + 2] =
+                                    out[PROJ_CONIC + 2] + g_sigma * half * dy * dy;
                                 out[0] = out[0] - g_sigma * (a * dx + b * dy);
                                 out[1] = out[1] - g_sigma * (b * dx + c * dy);
                             }

@@ -9,6 +9,9 @@
 //! `[x, y, conic_a, conic_b, conic_c, depth, opacity, radius, colour_0 .. colour_C]`, with the
 //! conic `[[a, b], [b, c]]` the inverse of the dilated 2D covariance and `radius` 0 when culled.
 
+// Negated comparisons are deliberate: they reject NaN. Index loops mirror the matrix algebra.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
 pub mod bin;
 pub mod blend;
 pub mod project;
@@ -85,7 +88,11 @@ pub struct Forward<T> {
 }
 
 /// Renders `splats` over `background` (`C` values).
-pub fn forward<T: Real>(splats: &Splats<T>, background: &[T], settings: &RasterSettings) -> Forward<T> {
+pub fn forward<T: Real>(
+    splats: &Splats<T>,
+    background: &[T],
+    settings: &RasterSettings,
+) -> Forward<T> {
     splats.assert_shapes();
     let projected = project::project(splats, settings);
     let stride = proj_stride(splats.channels);

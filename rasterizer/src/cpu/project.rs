@@ -79,7 +79,6 @@ struct Geometry<T> {
     /// 2D covariance before dilation, as (a, b, c) of [[a, b], [b, c]].
     cov2: [T; 3],
     det_orig: T,
-    det: T,
     compensation: T,
     conic: [T; 3],
     radius: T,
@@ -115,18 +114,16 @@ fn quat_to_rot_backward<T: Real>(q: [T; 4], g: &Mat3<T>) -> [T; 4] {
     let [w, x, y, z] = q;
     let two = T::of(2.0);
     let four = T::of(4.0);
-    let gw = two * (-z * g[0][1] + y * g[0][2] + z * g[1][0] - x * g[1][2] - y * g[2][0]
-        + x * g[2][1]);
-    let gx = two * (y * g[0][1] + z * g[0][2] + y * g[1][0] - w * g[1][2]
-        + z * g[2][0]
-        + w * g[2][1])
+    let gw =
+        two * (-z * g[0][1] + y * g[0][2] + z * g[1][0] - x * g[1][2] - y * g[2][0] + x * g[2][1]);
+    let gx = two
+        * (y * g[0][1] + z * g[0][2] + y * g[1][0] - w * g[1][2] + z * g[2][0] + w * g[2][1])
         - four * x * (g[1][1] + g[2][2]);
-    let gy = two * (x * g[0][1] + w * g[0][2] + x * g[1][0] + z * g[1][2] - w * g[2][0]
-        + z * g[2][1])
+    let gy = two
+        * (x * g[0][1] + w * g[0][2] + x * g[1][0] + z * g[1][2] - w * g[2][0] + z * g[2][1])
         - four * y * (g[0][0] + g[2][2]);
-    let gz = two * (-w * g[0][1] + x * g[0][2] + w * g[1][0] + y * g[1][2]
-        + x * g[2][0]
-        + y * g[2][1])
+    let gz = two
+        * (-w * g[0][1] + x * g[0][2] + w * g[1][0] + y * g[1][2] + x * g[2][0] + y * g[2][1])
         - four * z * (g[0][0] + g[1][1]);
     [gw, gx, gy, gz]
 }
@@ -169,7 +166,11 @@ fn geometry<T: Real>(
     }
     let p_cam = {
         let p = mat3_vec(&cam.rot, [mean[0], mean[1], mean[2]]);
-        [p[0] + cam.trans[0], p[1] + cam.trans[1], p[2] + cam.trans[2]]
+        [
+            p[0] + cam.trans[0],
+            p[1] + cam.trans[1],
+            p[2] + cam.trans[2],
+        ]
     };
     let z = p_cam[2];
     if !(z > cam.near) || z > cam.far {
@@ -204,11 +205,16 @@ fn geometry<T: Real>(
     let mut jc = [[zero; 3]; 2];
     for r in 0..2 {
         for c in 0..3 {
-            jc[r][c] = jac[r][0] * cov_cam[0][c] + jac[r][1] * cov_cam[1][c] + jac[r][2] * cov_cam[2][c];
+            jc[r][c] =
+                jac[r][0] * cov_cam[0][c] + jac[r][1] * cov_cam[1][c] + jac[r][2] * cov_cam[2][c];
         }
     }
     let dot = |a: &[T; 3], b: &[T; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let cov2 = [dot(&jc[0], &jac[0]), dot(&jc[0], &jac[1]), dot(&jc[1], &jac[1])];
+    let cov2 = [
+        dot(&jc[0], &jac[0]),
+        dot(&jc[0], &jac[1]),
+        dot(&jc[1], &jac[1]),
+    ];
     let eps = T::of(settings.eps2d as f64);
     let det_orig = cov2[0] * cov2[2] - cov2[1] * cov2[1];
     let (a, b, c) = (cov2[0] + eps, cov2[1], cov2[2] + eps);
@@ -249,7 +255,6 @@ fn geometry<T: Real>(
         clamped,
         cov2,
         det_orig,
-        det,
         compensation,
         conic,
         radius,
@@ -277,36 +282,34 @@ pub fn project<T: Real>(splats: &Splats<T>, settings: &RasterSettings) -> Vec<T>
     let cam = CameraConsts::new(settings);
     let stride = proj_stride(splats.channels);
     let mut out = vec![T::zero(); splats.count * stride];
-    out.par_chunks_mut(stride)
-        .enumerate()
-        .for_each(|(i, row)| {
-            let Some(g) = geometry(splats, i, &cam, settings) else {
-                return;
-            };
-            row[0] = g.mean2d[0];
-            row[1] = g.mean2d[1];
-            row[PROJ_CONIC..PROJ_CONIC + 3].copy_from_slice(&g.conic);
-            row[PROJ_DEPTH] = g.p_cam[2];
-            row[PROJ_OPACITY] = sigmoid(splats.opacity_logits[i]) * g.compensation;
-            row[PROJ_RADIUS] = g.radius;
-            let color = &mut row[PROJ_COLOR..];
-            match settings.color {
-                ColorMode::Features => color.copy_from_slice(splats.color_row(i)),
-                ColorMode::Sh { degree } => {
-                    let (dir, _) = view_direction(&splats.means[3 * i..3 * i + 3], &cam);
-                    let mut basis = [T::zero(); 16];
-                    sh::basis(degree, dir, &mut basis, None);
-                    let coeffs = splats.color_row(i);
-                    for (ch, out) in color.iter_mut().enumerate() {
-                        let mut sum = T::of(0.5);
-                        for (k, b) in basis.iter().enumerate().take(sh::coeff_count(degree)) {
-                            sum = sum + *b * coeffs[k * splats.channels + ch];
-                        }
-                        *out = sum.max(T::zero());
+    out.par_chunks_mut(stride).enumerate().for_each(|(i, row)| {
+        let Some(g) = geometry(splats, i, &cam, settings) else {
+            return;
+        };
+        row[0] = g.mean2d[0];
+        row[1] = g.mean2d[1];
+        row[PROJ_CONIC..PROJ_CONIC + 3].copy_from_slice(&g.conic);
+        row[PROJ_DEPTH] = g.p_cam[2];
+        row[PROJ_OPACITY] = sigmoid(splats.opacity_logits[i]) * g.compensation;
+        row[PROJ_RADIUS] = g.radius;
+        let color = &mut row[PROJ_COLOR..];
+        match settings.color {
+            ColorMode::Features => color.copy_from_slice(splats.color_row(i)),
+            ColorMode::Sh { degree } => {
+                let (dir, _) = view_direction(&splats.means[3 * i..3 * i + 3], &cam);
+                let mut basis = [T::zero(); 16];
+                sh::basis(degree, dir, &mut basis, None);
+                let coeffs = splats.color_row(i);
+                for (ch, out) in color.iter_mut().enumerate() {
+                    let mut sum = T::of(0.5);
+                    for (k, b) in basis.iter().enumerate().take(sh::coeff_count(degree)) {
+                        sum = sum + *b * coeffs[k * splats.channels + ch];
                     }
+                    *out = sum.max(T::zero());
                 }
             }
-        });
+        }
+    });
     out
 }
 
@@ -348,7 +351,10 @@ pub fn project_backward<T: Real>(
             let (o_scales, rest) = rest.split_at_mut(3);
             let (o_opacity, rest) = rest.split_at_mut(1);
             let (o_colors, o_offsets) = rest.split_at_mut(coeffs * channels);
-            backward_one(splats, i, &cam, settings, &g, gp, o_means, o_quats, o_scales, o_opacity, o_colors, o_offsets);
+            backward_one(
+                splats, i, &cam, settings, &g, gp, o_means, o_quats, o_scales, o_opacity, o_colors,
+                o_offsets,
+            );
         });
     let mut grads = SplatGrads {
         means: vec![T::zero(); n * 3],
@@ -452,7 +458,10 @@ fn backward_one<T: Real>(
     if settings.mode == RasterMode::AntiAliased && g.compensation > zero && g.det_orig > zero {
         // d sqrt(det Σ / det Σ') = ½ · comp · (Σ⁻¹ − Σ'⁻¹).
         let (a, b, c) = (g.cov2[0], g.cov2[1], g.cov2[2]);
-        let inv_orig = [[c / g.det_orig, -b / g.det_orig], [-b / g.det_orig, a / g.det_orig]];
+        let inv_orig = [
+            [c / g.det_orig, -b / g.det_orig],
+            [-b / g.det_orig, a / g.det_orig],
+        ];
         let scale = half * g.compensation * g_comp;
         for r in 0..2 {
             for col in 0..2 {

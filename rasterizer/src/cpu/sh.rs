@@ -53,11 +53,7 @@ pub fn basis<T: Real>(degree: u32, d: [T; 3], out: &mut [T; 16], grad: Option<&m
         out[8] = c(C2[4]) * (xx - yy);
         g[4] = [c(C2[0]) * y, c(C2[0]) * x, zero];
         g[5] = [zero, c(C2[1]) * z, c(C2[1]) * y];
-        g[6] = [
-            c(-2.0 * C2[2]) * x,
-            c(-2.0 * C2[2]) * y,
-            c(4.0 * C2[2]) * z,
-        ];
+        g[6] = [c(-2.0 * C2[2]) * x, c(-2.0 * C2[2]) * y, c(4.0 * C2[2]) * z];
         g[7] = [c(C2[3]) * z, zero, c(C2[3]) * x];
         g[8] = [c(2.0 * C2[4]) * x, c(-2.0 * C2[4]) * y, zero];
     }
@@ -92,11 +88,7 @@ pub fn basis<T: Real>(degree: u32, d: [T; 3], out: &mut [T; 16], grad: Option<&m
             c(-2.0 * C3[5]) * y * z,
             c(C3[5]) * (xx - yy),
         ];
-        g[15] = [
-            c(3.0 * C3[6]) * (xx - yy),
-            c(-6.0 * C3[6]) * x * y,
-            zero,
-        ];
+        g[15] = [c(3.0 * C3[6]) * (xx - yy), c(-6.0 * C3[6]) * x * y, zero];
     }
     if let Some(grad) = grad {
         *grad = g;

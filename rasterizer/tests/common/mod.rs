@@ -6,13 +6,19 @@ use splatzoo_rasterizer::testing::HostScene;
 use splatzoo_rasterizer::{RasterSettings, Render, Splats, rasterize};
 
 pub fn values<const D: usize>(t: Tensor<D>) -> Vec<f32> {
-    t.into_data().convert::<f32>().into_vec::<f32>().unwrap()
+    t.into_data()
+        .convert::<f32>()
+        .try_into_vec::<f32>()
+        .unwrap()
 }
 
 /// Largest absolute difference relative to the largest magnitude of `expected`.
 pub fn relative_error(actual: &[f32], expected: &[f32]) -> f32 {
     assert_eq!(actual.len(), expected.len());
-    let scale = expected.iter().fold(0.0f32, |m, v| m.max(v.abs())).max(1e-6);
+    let scale = expected
+        .iter()
+        .fold(0.0f32, |m, v| m.max(v.abs()))
+        .max(1e-6);
     let diff = actual
         .iter()
         .zip(expected)
@@ -48,9 +54,18 @@ impl Leaves {
             ("means", g2(&self.splats.means)),
             ("quats", g2(&self.splats.quats)),
             ("log_scales", g2(&self.splats.log_scales)),
-            ("opacity_logits", values(self.splats.opacity_logits.grad(grads).expect("gradient"))),
-            ("colors", values(self.splats.colors.grad(grads).expect("gradient"))),
-            ("background", values(self.background.grad(grads).expect("gradient"))),
+            (
+                "opacity_logits",
+                values(self.splats.opacity_logits.grad(grads).expect("gradient")),
+            ),
+            (
+                "colors",
+                values(self.splats.colors.grad(grads).expect("gradient")),
+            ),
+            (
+                "background",
+                values(self.background.grad(grads).expect("gradient")),
+            ),
         ]
     }
 }
