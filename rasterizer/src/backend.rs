@@ -102,7 +102,7 @@ fn backward_meta(
 }
 
 /// A backend that can rasterize Gaussian splats.
-#[backend_extension(Autodiff, NdArray, Flex)]
+#[backend_extension(Autodiff, Cube, Fusion, NdArray, Flex)]
 pub trait SplatBackend: Backend {
     /// Renders; see [`crate::rasterize`] for the public, shape-checked entry point.
     #[fusion(meta = forward_meta)]

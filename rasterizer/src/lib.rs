@@ -39,7 +39,9 @@ pub mod backend;
 pub mod camera;
 pub mod cpu;
 mod cpu_backend;
+mod cube_backend;
 pub mod error;
+pub mod kernels;
 pub mod reference;
 pub mod testing;
 
