@@ -7,6 +7,9 @@ use crate::error::RasterError;
 use burn::backend::Dispatch;
 use burn::tensor::{Bool, Tensor};
 
+/// Most splats one render takes (GPU launch grids and `f32` list indices bound it).
+pub const MAX_SPLATS: usize = 16_000_000;
+
 /// A set of 3D Gaussians, one row per splat.
 #[derive(Debug, Clone)]
 pub struct Splats {
@@ -82,11 +85,25 @@ impl Splats {
                 &background.dims(),
             ));
         }
-        if n >= 1 << 24 {
+        if n > MAX_SPLATS {
             return Err(RasterError::Value {
                 name: "means",
-                problem: format!("{n} splats exceed the supported 2^24"),
+                problem: format!("{n} splats exceed the supported {MAX_SPLATS}"),
             });
+        }
+        let on_gpu = matches!(
+            self.means.device().inner().as_dispatch(),
+            burn::backend::DispatchDevice::Cube(_)
+        );
+        if on_gpu && c > crate::cube_backend::MAX_GPU_CHANNELS {
+            return Err(shape_err(
+                "colors",
+                format!(
+                    "[N, K, C] with C <= {} on a GPU device",
+                    crate::cube_backend::MAX_GPU_CHANNELS
+                ),
+                &self.colors.dims(),
+            ));
         }
         Ok(())
     }

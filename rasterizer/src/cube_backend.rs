@@ -178,7 +178,7 @@ fn bin_splats(
     );
     bin::sort_tiles::launch(
         client,
-        CubeCount::new_1d(n_tiles as u32),
+        CubeCount::Static(tiles_x, tiles_y, 1),
         CubeDim::new_1d(UNITS),
         buffer(&tile_offsets),
         buffer(&list_depth),
@@ -298,7 +298,7 @@ impl SplatBackend for CubeBackend {
         let clip = settings.clip_sigmas;
         blend::blend_forward::launch(
             &p.means.client,
-            CubeCount::new_1d(tiles_x * tiles_y),
+            CubeCount::Static(tiles_x, tiles_y, 1),
             CubeDim::new_1d(UNITS),
             buffer(&projected),
             buffer(&bins.tile_offsets),
@@ -373,7 +373,7 @@ impl SplatBackend for CubeBackend {
         let clip = settings.clip_sigmas;
         blend::blend_backward::launch(
             &client,
-            CubeCount::new_1d(tiles_x * tiles_y),
+            CubeCount::Static(tiles_x, tiles_y, 1),
             CubeDim::new_1d(UNITS),
             buffer(&projected),
             buffer(&bins.tile_offsets),

@@ -30,8 +30,17 @@
 //! contribution, zero gradient. Camera, settings and background are validated up front.
 //!
 //! # Backends
-//! `NdArray` and `Flex` (CPU, `cpu` module, rayon) and autodiff over any of them. The dense
-//! [`reference`] in plain Burn tensor ops is the oracle the tests hold the fast paths to.
+//! - CPU: `NdArray` and `Flex` from one implementation ([`cpu`], rayon, tile rows in parallel,
+//!   bit-for-bit deterministic).
+//! - GPU: every CubeCL runtime (`Cube`: wgpu, and CUDA with the `cuda` feature) and Burn's
+//!   default fused wgpu backend (`Fusion`), from the kernels in [`kernels`]: projection, tile
+//!   histogram, prefix sums, intersection scatter, per-tile bitonic sort, blending forward and
+//!   backward (per-tile shared-memory reductions, no float atomics), projection backward. One
+//!   host read-back per call (the intersection count). At most 16 colour channels.
+//! - `Autodiff` over any of them: the image is the tracked output; the backward is the op's own.
+//!
+//! The dense [`reference`] in plain Burn tensor ops is the oracle the tests hold the fast paths
+//! to; the CPU kernels are also checked against f64 finite differences of themselves.
 
 pub mod api;
 pub mod autodiff;
