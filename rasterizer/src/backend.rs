@@ -31,6 +31,22 @@ pub struct SplatInputs<B: Backend> {
     pub screen_offsets: FloatTensor<B>,
 }
 
+impl<B: Backend> SplatInputs<B> {
+    /// Shapes of the fields in declaration order (those of the matching gradients).
+    pub fn shapes(&self) -> [Shape; 7] {
+        use burn::backend::TensorMetadata;
+        [
+            self.means.shape(),
+            self.quats.shape(),
+            self.log_scales.shape(),
+            self.opacity_logits.shape(),
+            self.colors.shape(),
+            self.background.shape(),
+            self.screen_offsets.shape(),
+        ]
+    }
+}
+
 /// State a forward leaves for its backward, fixed-size.
 #[derive(ExtensionType, Clone, Debug)]
 #[extension_type(fusion)]

@@ -105,15 +105,7 @@ pub fn backward<B: Backend>(
     settings: RasterSettings,
 ) -> SplatInputGrads<B> {
     let device = inputs.means.device();
-    let shapes = [
-        inputs.means.shape(),
-        inputs.quats.shape(),
-        inputs.log_scales.shape(),
-        inputs.opacity_logits.shape(),
-        inputs.colors.shape(),
-        inputs.background.shape(),
-        inputs.screen_offsets.shape(),
-    ];
+    let shapes = inputs.shapes();
     let host_inputs = HostInputs::read(inputs);
     let projected = host::<B>(saved.projected);
     let final_transmittance = host::<B>(saved.final_transmittance);

@@ -341,14 +341,7 @@ impl SplatBackend for CubeBackend {
         grad_image: FloatTensor<Self>,
         settings: RasterSettings,
     ) -> SplatInputGrads<Self> {
-        let shapes = [
-            inputs.means.shape(),
-            inputs.quats.shape(),
-            inputs.log_scales.shape(),
-            inputs.opacity_logits.shape(),
-            inputs.colors.shape(),
-            inputs.screen_offsets.shape(),
-        ];
+        let shapes = inputs.shapes();
         let p = prepare(inputs, &settings);
         let (h, w) = (
             settings.camera.height as usize,
@@ -468,6 +461,7 @@ impl SplatBackend for CubeBackend {
             log_scales,
             opacity_logits,
             colors,
+            _,
             screen_offsets,
         ] = shapes;
         let fit = |t: CubeTensor, shape: Shape| {

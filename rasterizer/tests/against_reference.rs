@@ -3,9 +3,8 @@
 
 mod common;
 
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::Device;
 use common::*;
-use rand::{Rng, SeedableRng, rngs::StdRng};
 use splatzoo_rasterizer::testing::{SceneSpec, random_scene};
 use splatzoo_rasterizer::{ColorMode, RasterMode, reference};
 
@@ -47,22 +46,8 @@ fn forward_and_gradients_match_reference_autodiff() {
             (22, ColorMode::Sh { degree: 1 }, RasterMode::AntiAliased),
             (23, ColorMode::Features, RasterMode::Classic),
         ] {
-            let mut spec = SceneSpec::new(25, 33, 21, color);
-            spec.opacity_range = (0.1, 0.7);
-            let (scene, mut settings) = random_scene(seed, &spec);
-            settings.alpha_min = 0.0;
-            settings.clip_sigmas = 6.0;
-            settings.mode = mode;
-            let [h, w] = [
-                settings.camera.height as usize,
-                settings.camera.width as usize,
-            ];
-            let c = scene.channels;
-            let mut rng = StdRng::seed_from_u64(seed);
-            let weights: Vec<f32> = (0..h * w * (c + 2))
-                .map(|_| rng.random_range(-1.0..1.0))
-                .collect();
-            let weights = Tensor::<3>::from_data(TensorData::new(weights, [h, w, c + 2]), &device);
+            let (scene, settings, weights) = smooth_scene(seed, 25, (33, 21), color, mode);
+            let weights = weight_tensor(&weights, &settings, &device);
 
             let ours = leaves(&scene, &device);
             let image = packed(&render(&ours, &settings));

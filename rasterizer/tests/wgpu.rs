@@ -4,9 +4,8 @@
 
 mod common;
 
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::Device;
 use common::*;
-use rand::{Rng, SeedableRng, rngs::StdRng};
 use splatzoo_rasterizer::testing::{HostScene, SceneSpec, default_camera, random_scene};
 use splatzoo_rasterizer::{ColorMode, RasterMode, RasterSettings, rasterize};
 
@@ -88,25 +87,10 @@ fn gradients_match_cpu() {
         (42, ColorMode::Sh { degree: 1 }, RasterMode::AntiAliased),
         (43, ColorMode::Features, RasterMode::Classic),
     ] {
-        let mut spec = SceneSpec::new(60, 37, 29, color);
-        spec.opacity_range = (0.1, 0.7);
-        let (scene, mut settings) = random_scene(seed, &spec);
-        settings.alpha_min = 0.0;
-        settings.clip_sigmas = 6.0;
-        settings.mode = mode;
-        let [h, w] = [
-            settings.camera.height as usize,
-            settings.camera.width as usize,
-        ];
-        let c = scene.channels;
-        let mut rng = StdRng::seed_from_u64(seed);
-        let weights: Vec<f32> = (0..h * w * (c + 2))
-            .map(|_| rng.random_range(-1.0..1.0))
-            .collect();
+        let (scene, settings, weights) = smooth_scene(seed, 60, (37, 29), color, mode);
         let run = |device: Device| {
             let device = device.autodiff();
-            let weights =
-                Tensor::<3>::from_data(TensorData::new(weights.clone(), [h, w, c + 2]), &device);
+            let weights = weight_tensor(&weights, &settings, &device);
             let l = leaves(&scene, &device);
             let r = render(&l, &settings);
             let grads = (packed(&r) * weights).sum().backward();

@@ -2,7 +2,9 @@
 #![allow(dead_code)]
 
 use burn::tensor::{Device, Gradients, Tensor};
-use splatzoo_rasterizer::testing::HostScene;
+use rand::{Rng, SeedableRng, rngs::StdRng};
+use splatzoo_rasterizer::testing::{HostScene, SceneSpec, random_scene};
+use splatzoo_rasterizer::{ColorMode, RasterMode};
 use splatzoo_rasterizer::{RasterSettings, Render, Splats, rasterize};
 
 pub fn values<const D: usize>(t: Tensor<D>) -> Vec<f32> {
@@ -85,4 +87,38 @@ pub fn packed(render: &Render) -> Tensor<3> {
 
 pub fn render(leaves: &Leaves, settings: &RasterSettings) -> Render {
     rasterize(&leaves.splats, leaves.background.clone(), settings).expect("valid inputs")
+}
+
+/// A random scene under settings that make the image smooth in its inputs (no alpha threshold,
+/// a far cut-off), for gradient comparisons; with random loss weights over `[H, W, C + 2]`.
+pub fn smooth_scene(
+    seed: u64,
+    splats: usize,
+    (width, height): (u32, u32),
+    color: ColorMode,
+    mode: RasterMode,
+) -> (HostScene, RasterSettings, Vec<f32>) {
+    let mut spec = SceneSpec::new(splats, width, height, color);
+    spec.opacity_range = (0.1, 0.7);
+    let (scene, mut settings) = random_scene(seed, &spec);
+    settings.alpha_min = 0.0;
+    settings.clip_sigmas = 6.0;
+    settings.mode = mode;
+    let len = (width * height) as usize * (scene.channels + 2);
+    let mut rng = StdRng::seed_from_u64(seed);
+    let weights = (0..len).map(|_| rng.random_range(-1.0..1.0)).collect();
+    (scene, settings, weights)
+}
+
+/// `weights` as a `[H, W, C + 2]` tensor matching `settings`' image.
+pub fn weight_tensor(weights: &[f32], settings: &RasterSettings, device: &Device) -> Tensor<3> {
+    let (h, w) = (
+        settings.camera.height as usize,
+        settings.camera.width as usize,
+    );
+    let c = weights.len() / (h * w) - 2;
+    Tensor::<3>::from_data(
+        burn::tensor::TensorData::new(weights.to_vec(), [h, w, c + 2]),
+        device,
+    )
 }
