@@ -357,8 +357,10 @@ impl SplatBackend for CubeBackend {
         let contributors = f32_input(saved.contributors);
         let grad_image = f32_input(grad_image);
 
-        let isect_grads = alloc(
-            &p.means,
+        // Zeroed: the blend backward skips entries past the tile's last contributor.
+        let isect_grads = zeros_client(
+            client.clone(),
+            p.means.device.clone(),
             Shape::new([bins.n_isect.max(1) * stride]),
             DType::F32,
         );

@@ -5,6 +5,7 @@ use burn_cubecl::cubecl;
 use cubecl::prelude::*;
 
 pub const TILE: u32 = 16;
+/// Splats staged per batch: one per unit of a 16×16 tile (the max-reduction halves from 128).
 const BATCH: usize = 256;
 const ALPHA_MAX: f32 = 0.99;
 const T_MIN: f32 = 0.0001;
@@ -39,6 +40,7 @@ pub fn blend_forward(
 
     let mut sh_geo = Shared::<[f32]>::new_slice(BATCH * 7);
     let mut sh_color = Shared::<[f32]>::new_slice(comptime!(BATCH * channels));
+    let mut sh_busy = Shared::<[u32]>::new_slice(1usize);
 
     let start = tile_offsets[tile] as usize;
     let end = tile_offsets[tile + 1] as usize;
@@ -89,8 +91,19 @@ pub fn blend_forward(
                 }
             }
         }
+        // Stop early once no pixel of the tile is still accumulating.
+        if lid == 0 {
+            sh_busy[0] = 0;
+        }
+        sync_cube();
+        if !done {
+            sh_busy[0] = 1;
+        }
         sync_cube();
         batch += BATCH;
+        if sh_busy[0] == 0 {
+            batch = end;
+        }
     }
     if inside {
         let p = (y * width + x) as usize;
@@ -144,9 +157,9 @@ pub fn blend_backward(
     let mut sh_color = Shared::<[f32]>::new_slice(comptime!(BATCH * channels));
     let mut red = Shared::<[f32]>::new_slice(comptime!(BATCH * (8 + channels)));
     let mut red2 = Shared::<[f32]>::new_slice(comptime!(lanes * (8 + channels)));
+    let mut sh_last = Shared::<[u32]>::new_slice(BATCH);
 
     let start = tile_offsets[tile] as usize;
-    let end = tile_offsets[tile + 1] as usize;
 
     let mut t_final = 1.0f32;
     let mut last = 0usize;
@@ -169,6 +182,23 @@ pub fn blend_backward(
         g_alpha = grad_image[g + channels];
         g_depth = grad_image[g + channels + 1];
     }
+    // Entries past every pixel's last contributor add nothing: walk only up to the tile's max.
+    let last_u32 = last as u32;
+    sh_last[lid] = last_u32;
+    sync_cube();
+    // A runtime counter (a `const` expression here would be a compile-time value).
+    let mut half = 128usize;
+    while half > 0 {
+        if lid < half {
+            let mine = sh_last[lid];
+            let other = sh_last[lid + half];
+            sh_last[lid] = select(other > mine, other, mine);
+        }
+        sync_cube();
+        half /= 2;
+    }
+    let tile_max = sh_last[0];
+    let end = start + tile_max as usize;
     let mut acc_depth = 0.0f32;
     let mut t = t_final;
     let mut contrib = Array::<f32>::new(comptime!(8 + channels));
