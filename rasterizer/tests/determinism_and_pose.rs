@@ -118,3 +118,31 @@ fn camera_pose_gradient_flows_through_burn_ops() {
         "directional derivative {fd} vs gradient norm {norm}"
     );
 }
+
+#[test]
+fn screen_gradient_norm_is_the_norm_of_the_offset_gradient() {
+    let device = Device::flex().autodiff();
+    let (mut host, settings) =
+        random_scene(9, &SceneSpec::new(30, 40, 30, ColorMode::Sh { degree: 0 }));
+    // Splat 0 behind the camera: culled, so its statistic must be 0.
+    host.means[..3].copy_from_slice(&[0.4, -0.3, -6.0]);
+    let l = leaves(&host, &device);
+    let r = render(&l, &settings);
+    let grads = r.color.clone().powi_scalar(2).sum().backward();
+    let norm = values(
+        r.screen_gradient_norm(&grads)
+            .expect("statistic under autodiff"),
+    );
+    let offsets = values(r.screen_offsets.grad(&grads).unwrap());
+    let radii = values(r.radii.clone());
+    assert_eq!(radii[0], 0.0);
+    assert_eq!(norm[0], 0.0, "culled splat");
+    for (i, g) in offsets.chunks(2).enumerate() {
+        let expected = (g[0] * g[0] + g[1] * g[1]).sqrt();
+        assert!((norm[i] - expected).abs() <= 1e-6 * expected.max(1.0));
+    }
+    assert!(
+        norm.iter().zip(&radii).any(|(n, r)| *r > 0.0 && *n > 0.0),
+        "visible splats move the loss"
+    );
+}

@@ -148,3 +148,34 @@ fn extremes_stay_finite_on_gpu() {
         assert!(g.iter().all(|x| x.is_finite()), "gradient of {name}");
     }
 }
+
+#[test]
+fn gpu_path_is_deterministic() {
+    // Atomics only count and scatter intersections; the per-tile sort on unique (depth, splat)
+    // keys and fixed-order reductions make the result independent of their order.
+    let (scene, settings, weights) = smooth_scene(
+        61,
+        400,
+        (64, 48),
+        ColorMode::Sh { degree: 2 },
+        RasterMode::Classic,
+    );
+    let run = || {
+        let device = gpu().autodiff();
+        let l = leaves(&scene, &device);
+        let r = render(&l, &settings);
+        let image = packed(&r);
+        let grads = (image.clone() * weight_tensor(&weights, &settings, &device))
+            .sum()
+            .backward();
+        (values(image), l.grads(&grads))
+    };
+    let (image, grads) = run();
+    for _ in 0..2 {
+        let (again, again_grads) = run();
+        assert!(image == again, "image differs between runs");
+        for ((name, a), (_, b)) in grads.iter().zip(&again_grads) {
+            assert!(a == b, "gradient of {name} differs between runs");
+        }
+    }
+}
