@@ -1,0 +1,7 @@
+//! Body models, skinning, Gaussian sets, networks and losses shared by the zoo's methods.
+//!
+//! So far: rotation representations as differentiable Burn ops ([`rotation`]) and the body-model
+//! layer ([`body`]): the model data, forward kinematics and linear blend skinning.
+
+pub mod body;
+pub mod rotation;
