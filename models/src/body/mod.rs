@@ -3,7 +3,9 @@
 
 pub mod lbs;
 pub mod model;
+pub mod npz;
 pub mod skeleton;
 
 pub use lbs::{BodyTensors, PoseInput, Posed};
 pub use model::{BodyKind, BodyModel, BodyModelError};
+pub use npz::load_npz;
