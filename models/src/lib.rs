@@ -3,5 +3,6 @@
 //! So far: rotation representations as differentiable Burn ops ([`rotation`]) and the body-model
 //! layer ([`body`]): the model data, forward kinematics and linear blend skinning.
 
+pub mod anchor;
 pub mod body;
 pub mod rotation;
