@@ -4,6 +4,7 @@
 pub mod lbs;
 pub mod model;
 pub mod npz;
+pub mod priors;
 pub mod skeleton;
 
 pub use lbs::{BodyTensors, PoseInput, Posed};
