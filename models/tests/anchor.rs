@@ -2,19 +2,15 @@
 //! mesh, subdivision that keeps a closed mesh closed and the rest pose unchanged, and
 //! area-uniform surface sampling.
 
+mod common;
+
 use burn::tensor::{Device, Tensor, TensorData};
+use common::values;
 use splatzoo_models::anchor::{
     MeshAnchors, anchored_positions, face_frames, fixed_barycentrics, subdivide,
 };
 use splatzoo_models::body::{BodyKind, BodyModel, BodyTensors, PoseInput, lbs};
 use splatzoo_models::rotation::axis_angle_to_matrix;
-
-fn values<const D: usize>(t: Tensor<D>) -> Vec<f32> {
-    t.into_data()
-        .convert::<f32>()
-        .try_into_vec::<f32>()
-        .unwrap()
-}
 
 /// A closed octahedron with outward winding.
 fn octahedron() -> (Vec<f32>, Vec<u32>) {

@@ -3,17 +3,13 @@
 //! validation errors name the key and the expected shape.
 #![allow(clippy::needless_range_loop)] // the f64 reference mirrors the equations index by index
 
+mod common;
+
 use burn::tensor::{Device, Tensor, TensorData};
+use common::{rodrigues, values};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 use splatzoo_models::body::{BodyKind, BodyModel, BodyTensors, PoseInput, lbs};
 use std::f64::consts::PI;
-
-fn values<const D: usize>(t: Tensor<D>) -> Vec<f32> {
-    t.into_data()
-        .convert::<f32>()
-        .try_into_vec::<f32>()
-        .unwrap()
-}
 
 const V: usize = 40;
 const J: usize = 6;
@@ -51,28 +47,6 @@ fn random_model(seed: u64) -> BodyModel {
 }
 
 type M3 = [[f64; 3]; 3];
-
-fn rodrigues(w: &[f64]) -> M3 {
-    let theta = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-    let mut r = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    if theta == 0.0 {
-        return r;
-    }
-    let k = [w[0] / theta, w[1] / theta, w[2] / theta];
-    let (s, c) = theta.sin_cos();
-    for i in 0..3 {
-        for j in 0..3 {
-            r[i][j] = c * r[i][j] + (1.0 - c) * k[i] * k[j];
-        }
-    }
-    r[0][1] -= s * k[2];
-    r[0][2] += s * k[1];
-    r[1][0] += s * k[2];
-    r[1][2] -= s * k[0];
-    r[2][0] -= s * k[1];
-    r[2][1] += s * k[0];
-    r
-}
 
 fn mul(a: &M3, b: &M3) -> M3 {
     let mut o = [[0.0; 3]; 3];
@@ -119,7 +93,9 @@ fn reference(
             })
         })
         .collect();
-    let rots: Vec<M3> = (0..J).map(|j| rodrigues(&pose[3 * j..3 * j + 3])).collect();
+    let rots: Vec<M3> = (0..J)
+        .map(|j| rodrigues([pose[3 * j], pose[3 * j + 1], pose[3 * j + 2]]))
+        .collect();
     let mut feature = Vec::new();
     for r in &rots[1..] {
         for (i, row) in r.iter().enumerate() {

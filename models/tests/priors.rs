@@ -1,17 +1,13 @@
 //! Skeleton priors of APF-GS Eq. 7: bone lengths and joint-angle limits.
 
+mod common;
+
 use burn::tensor::{Device, Tensor, TensorData};
+use common::values;
 use splatzoo_models::body::priors::{
     SMPL_ANGLE_LIMITS_DEG, angle_limit_loss, bone_length_loss, bone_lengths,
 };
 use splatzoo_models::body::skeleton::SMPL_PARENTS;
-
-fn values<const D: usize>(t: Tensor<D>) -> Vec<f32> {
-    t.into_data()
-        .convert::<f32>()
-        .try_into_vec::<f32>()
-        .unwrap()
-}
 
 #[test]
 fn bone_lengths_and_their_loss() {
