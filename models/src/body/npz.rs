@@ -9,16 +9,16 @@ use super::model::{BodyKind, BodyModel, BodyModelError};
 use super::skeleton::SMPL_JOINT_NAMES;
 use npyz::npz::NpzArchive;
 use npyz::{DType, NpyFile, Order};
-use std::io::{Read, Seek};
+use std::io::Read;
 use std::path::Path;
 
 /// An array read as `f64` in C order, with its shape.
-struct Array {
-    shape: Vec<usize>,
-    values: Vec<f64>,
+pub(crate) struct Array {
+    pub(crate) shape: Vec<usize>,
+    pub(crate) values: Vec<f64>,
 }
 
-fn field_err(file: &str, key: &str, problem: impl Into<String>) -> BodyModelError {
+pub(crate) fn field_err(file: &str, key: &str, problem: impl Into<String>) -> BodyModelError {
     BodyModelError::Field {
         file: file.to_owned(),
         key: key.to_owned(),
@@ -27,7 +27,7 @@ fn field_err(file: &str, key: &str, problem: impl Into<String>) -> BodyModelErro
 }
 
 /// Reorders a Fortran-ordered buffer of `shape` into C order.
-fn fortran_to_c(values: Vec<f64>, shape: &[usize]) -> Vec<f64> {
+pub(crate) fn fortran_to_c(values: Vec<f64>, shape: &[usize]) -> Vec<f64> {
     let mut out = vec![0.0; values.len()];
     let mut index = vec![0usize; shape.len()];
     for slot in out.iter_mut() {
@@ -113,25 +113,16 @@ fn read_array<R: Read>(npy: NpyFile<R>, file: &str, key: &str) -> Result<Array, 
     Ok(Array { shape, values })
 }
 
-fn get<R: Read + Seek>(
-    archive: &mut NpzArchive<R>,
-    file: &str,
-    key: &str,
-    expected: &str,
-) -> Result<Option<Array>, BodyModelError> {
-    let npy = archive
-        .by_name(key)
-        .map_err(|e| field_err(file, key, format!("cannot read ({e}); expected {expected}")))?;
-    npy.map(|npy| read_array(npy, file, key)).transpose()
-}
+/// Looks arrays up by key; `Ok(None)` when the key is absent.
+pub(crate) type Fetch<'a> = dyn FnMut(&str) -> Result<Option<Array>, BodyModelError> + 'a;
 
-fn require<R: Read + Seek>(
-    archive: &mut NpzArchive<R>,
+fn require(
+    fetch: &mut Fetch,
     file: &str,
     key: &str,
     expected: &str,
 ) -> Result<Array, BodyModelError> {
-    get(archive, file, key, expected)?.ok_or_else(|| {
+    fetch(key)?.ok_or_else(|| {
         field_err(
             file,
             key,
@@ -215,10 +206,22 @@ pub fn load_npz(path: &Path) -> Result<BodyModel, BodyModelError> {
         file: file.clone(),
         problem: format!("cannot open as .npz ({e})"),
     })?;
-    let template = require(&mut archive, &file, "v_template", "[V, 3]")?;
+    let mut fetch = |key: &str| -> Result<Option<Array>, BodyModelError> {
+        let npy = archive
+            .by_name(key)
+            .map_err(|e| field_err(&file, key, format!("cannot read ({e})")))?;
+        npy.map(|npy| read_array(npy, &file, key)).transpose()
+    };
+    assemble(&file, &mut fetch)
+}
+
+/// Builds and validates a model from the SMPL-family arrays `fetch` finds.
+pub(crate) fn assemble(file: &str, fetch: &mut Fetch) -> Result<BodyModel, BodyModelError> {
+    let file = file.to_owned();
+    let template = require(fetch, &file, "v_template", "[V, 3]")?;
     check_shape(&template, &file, "v_template", &[None, Some(3)], "[V, 3]")?;
     let v = template.shape[0];
-    let kintree = require(&mut archive, &file, "kintree_table", "[2, J]")?;
+    let kintree = require(fetch, &file, "kintree_table", "[2, J]")?;
     check_shape(&kintree, &file, "kintree_table", &[Some(2), None], "[2, J]")?;
     let j = kintree.shape[1];
     let kind = match (j, v) {
@@ -233,7 +236,7 @@ pub fn load_npz(path: &Path) -> Result<BodyModel, BodyModelError> {
             ));
         }
     };
-    let faces = require(&mut archive, &file, "f", "[F, 3]")?;
+    let faces = require(fetch, &file, "f", "[F, 3]")?;
     check_shape(&faces, &file, "f", &[None, Some(3)], "[F, 3]")?;
     if let Some(bad) = faces.values.iter().find(|&&f| f < 0.0 || f.fract() != 0.0) {
         return Err(field_err(
@@ -242,7 +245,7 @@ pub fn load_npz(path: &Path) -> Result<BodyModel, BodyModelError> {
             format!("holds {bad}; expected vertex indices"),
         ));
     }
-    let regressor = require(&mut archive, &file, "J_regressor", &format!("[{j}, {v}]"))?;
+    let regressor = require(fetch, &file, "J_regressor", &format!("[{j}, {v}]"))?;
     check_shape(
         &regressor,
         &file,
@@ -250,7 +253,7 @@ pub fn load_npz(path: &Path) -> Result<BodyModel, BodyModelError> {
         &[Some(j), Some(v)],
         &format!("[{j}, {v}]"),
     )?;
-    let weights = require(&mut archive, &file, "weights", &format!("[{v}, {j}]"))?;
+    let weights = require(fetch, &file, "weights", &format!("[{v}, {j}]"))?;
     check_shape(
         &weights,
         &file,
@@ -258,7 +261,7 @@ pub fn load_npz(path: &Path) -> Result<BodyModel, BodyModelError> {
         &[Some(v), Some(j)],
         &format!("[{v}, {j}]"),
     )?;
-    let shapedirs = require(&mut archive, &file, "shapedirs", &format!("[{v}, 3, S]"))?;
+    let shapedirs = require(fetch, &file, "shapedirs", &format!("[{v}, 3, S]"))?;
     check_shape(
         &shapedirs,
         &file,
@@ -267,12 +270,7 @@ pub fn load_npz(path: &Path) -> Result<BodyModel, BodyModelError> {
         &format!("[{v}, 3, S]"),
     )?;
     let pose_len = 9 * (j - 1);
-    let posedirs = get(
-        &mut archive,
-        &file,
-        "posedirs",
-        &format!("[{v}, 3, {pose_len}]"),
-    )?;
+    let posedirs = fetch("posedirs")?;
     if let Some(p) = &posedirs {
         check_shape(
             p,
