@@ -10,6 +10,16 @@ const BATCH: usize = 256;
 const ALPHA_MAX: f32 = 0.99;
 const T_MIN: f32 = 0.0001;
 
+/// The pixel this unit shades: cube = tile (row-major), unit = pixel within the 16×16 tile.
+#[cube]
+fn unit_pixel(tiles_x: u32) -> (u32, u32) {
+    let tile = CUBE_POS as u32;
+    (
+        (tile % tiles_x) * TILE + UNIT_POS % TILE,
+        (tile / tiles_x) * TILE + UNIT_POS / TILE,
+    )
+}
+
 #[cube(launch)]
 #[allow(clippy::too_many_arguments)]
 pub fn blend_forward(
@@ -29,11 +39,8 @@ pub fn blend_forward(
 ) {
     let stride = comptime!(8 + channels);
     let tile = CUBE_POS;
-    let tx = tile as u32 % tiles_x;
-    let ty = tile as u32 / tiles_x;
     let lid = UNIT_POS as usize;
-    let x = tx * TILE + UNIT_POS % TILE;
-    let y = ty * TILE + UNIT_POS / TILE;
+    let (x, y) = unit_pixel(tiles_x);
     let inside = x < width && y < height;
     let pxf = f32::cast_from(x) + 0.5;
     let pyf = f32::cast_from(y) + 0.5;
@@ -143,11 +150,8 @@ pub fn blend_backward(
     let stride = comptime!(8 + channels);
     let lanes = comptime!((BATCH / (8 + channels)).max(1));
     let tile = CUBE_POS;
-    let tx = tile as u32 % tiles_x;
-    let ty = tile as u32 / tiles_x;
     let lid = UNIT_POS as usize;
-    let x = tx * TILE + UNIT_POS % TILE;
-    let y = ty * TILE + UNIT_POS / TILE;
+    let (x, y) = unit_pixel(tiles_x);
     let inside = x < width && y < height;
     let pxf = f32::cast_from(x) + 0.5;
     let pyf = f32::cast_from(y) + 0.5;
