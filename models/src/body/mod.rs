@@ -1,6 +1,7 @@
 //! The body-model layer: a parametric body as data ([`BodyModel`]), its loaders, and
 //! differentiable forward kinematics and linear blend skinning ([`lbs`]).
 
+pub mod builtin;
 pub mod lbs;
 pub mod model;
 pub mod npz;
@@ -8,6 +9,7 @@ pub mod pkl;
 pub mod priors;
 pub mod skeleton;
 
+pub use builtin::{BuiltinBody, builtin_body};
 pub use lbs::{BodyTensors, PoseInput, Posed};
 pub use model::{BodyKind, BodyModel, BodyModelError};
 pub use npz::load_npz;
