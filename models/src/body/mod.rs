@@ -12,7 +12,7 @@ pub mod skeleton;
 pub use builtin::{BuiltinBody, builtin_body};
 pub use lbs::{BodyTensors, PoseInput, Posed};
 pub use model::{BodyKind, BodyModel, BodyModelError};
-pub use npz::load_npz;
+pub use npz::{load_npz, save_npz};
 pub use pkl::load_pkl;
 
 use std::path::Path;

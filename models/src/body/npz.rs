@@ -13,9 +13,10 @@ use std::io::Read;
 use std::path::Path;
 
 /// An array read as `f64` in C order, with its shape.
-pub(crate) struct Array {
-    pub(crate) shape: Vec<usize>,
-    pub(crate) values: Vec<f64>,
+#[derive(Debug, Clone, PartialEq)]
+pub struct Array {
+    pub shape: Vec<usize>,
+    pub values: Vec<f64>,
 }
 
 pub(crate) fn field_err(file: &str, key: &str, problem: impl Into<String>) -> BodyModelError {
@@ -51,13 +52,19 @@ pub(crate) fn fortran_to_c(values: Vec<f64>, shape: &[usize]) -> Vec<f64> {
 }
 
 fn read_array<R: Read>(npy: NpyFile<R>, file: &str, key: &str) -> Result<Array, BodyModelError> {
+    decode_npy(npy).map_err(|problem| field_err(file, key, problem))
+}
+
+/// Reads any numeric `.npy` payload (f8/f4/i8/i4/u8/u4/u1, C or Fortran order) as `f64` in C
+/// order; the error says what was wrong, for the caller to place.
+pub fn decode_npy<R: Read>(npy: NpyFile<R>) -> Result<Array, String> {
     let shape: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
     let fortran = npy.order() == Order::Fortran;
     let type_str = match npy.dtype() {
         DType::Plain(t) => t.to_string(),
-        other => return Err(field_err(file, key, format!("unsupported dtype {other:?}"))),
+        other => return Err(format!("unsupported dtype {other:?}")),
     };
-    let io = |e: std::io::Error| field_err(file, key, format!("cannot read ({e})"));
+    let io = |e: std::io::Error| format!("cannot read ({e})");
     let values: Vec<f64> = match type_str.as_str() {
         "<f8" => npy.into_vec::<f64>().map_err(io)?,
         "<f4" => npy
@@ -97,13 +104,12 @@ fn read_array<R: Read>(npy: NpyFile<R>, file: &str, key: &str) -> Result<Array, 
             .map(f64::from)
             .collect(),
         "|O" => {
-            return Err(field_err(
-                file,
-                key,
-                "holds Python objects (e.g. a scipy sparse matrix); re-save it dense: `np.savez(out, **{k: np.asarray(v.todense() if hasattr(v, 'todense') else v) for k, v in d.items()})`",
-            ));
+            return Err(
+                "holds Python objects (e.g. a scipy sparse matrix); re-save it dense: `np.savez(out, **{k: np.asarray(v.todense() if hasattr(v, 'todense') else v) for k, v in d.items()})`"
+                    .into(),
+            );
         }
-        other => return Err(field_err(file, key, format!("unsupported dtype {other}"))),
+        other => return Err(format!("unsupported dtype {other}")),
     };
     let values = if fortran && shape.len() > 1 {
         fortran_to_c(values, &shape)
@@ -315,4 +321,84 @@ pub(crate) fn assemble(file: &str, fetch: &mut Fetch) -> Result<BodyModel, BodyM
     };
     model.validate(&file)?;
     Ok(model)
+}
+
+/// Writes a model in the SMPL `.npz` layout [`load_npz`] reads (`v_template`, `f`,
+/// `J_regressor`, `kintree_table`, `weights`, `shapedirs`, and `posedirs` when present), through
+/// a temporary file renamed into place. Expression directions are not written.
+pub fn save_npz(model: &BodyModel, path: &Path) -> Result<(), BodyModelError> {
+    use npyz::WriterBuilder;
+    let file = path.display().to_string();
+    let v = model.vertex_count() as u64;
+    let j = model.joint_count() as u64;
+    let tmp = path.with_extension("npz.partial");
+    let write = || -> std::io::Result<()> {
+        let mut npz = npyz::npz::NpzWriter::create(&tmp)?;
+        {
+            let mut put = |name: &str, shape: &[u64], values: &mut dyn Iterator<Item = f64>| {
+                let mut w = npz
+                    .array::<f64>(name, Default::default())?
+                    .default_dtype()
+                    .shape(shape)
+                    .begin_nd()?;
+                w.extend(values)?;
+                w.finish()
+            };
+            let f64s = |x: &[f32]| x.iter().map(|&v| v as f64).collect::<Vec<f64>>();
+            put(
+                "v_template",
+                &[v, 3],
+                &mut f64s(&model.template).into_iter(),
+            )?;
+            put(
+                "J_regressor",
+                &[j, v],
+                &mut f64s(&model.joint_regressor).into_iter(),
+            )?;
+            put(
+                "weights",
+                &[v, j],
+                &mut f64s(&model.skin_weights).into_iter(),
+            )?;
+            let s = model.shape_count() as u64;
+            put(
+                "shapedirs",
+                &[v, 3, s],
+                &mut f64s(&model.shape_dirs).into_iter(),
+            )?;
+            if let Some(p) = &model.pose_dirs {
+                put("posedirs", &[v, 3, 9 * (j - 1)], &mut f64s(p).into_iter())?;
+            }
+        }
+        {
+            let faces = model.faces.iter().map(|&x| x as i64);
+            let mut w = npz
+                .array::<i64>("f", Default::default())?
+                .default_dtype()
+                .shape(&[model.face_count() as u64, 3])
+                .begin_nd()?;
+            w.extend(faces)?;
+            w.finish()?;
+            let parents = model.parents.iter().map(|p| p.map_or(-1, |p| p as i64));
+            let children = 0..j as i64;
+            let mut w = npz
+                .array::<i64>("kintree_table", Default::default())?
+                .default_dtype()
+                .shape(&[2, j])
+                .begin_nd()?;
+            w.extend(parents.chain(children))?;
+            w.finish()?;
+        }
+        let mut inner = npz.zip_writer().finish().map_err(std::io::Error::other)?;
+        std::io::Write::flush(&mut inner)?;
+        inner.get_ref().sync_all()?;
+        std::fs::rename(&tmp, path)
+    };
+    write().map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        BodyModelError::File {
+            file,
+            problem: format!("cannot write ({e})"),
+        }
+    })
 }

@@ -119,8 +119,8 @@ fn is_limb(j: usize) -> bool {
 /// Joints strictly below `j` in the tree (its descendants).
 fn descendants(j: usize) -> Vec<usize> {
     let mut out = Vec::new();
-    for k in 0..JOINTS {
-        let mut p = SMPL_PARENTS[k];
+    for (k, &parent) in SMPL_PARENTS.iter().enumerate() {
+        let mut p = parent;
         while let Some(q) = p {
             if q == j {
                 out.push(k);
@@ -166,11 +166,11 @@ impl Skeleton {
         let mut moved = descendants(root);
         moved.push(root);
         for &k in &moved {
-            for c in 0..3 {
+            for (c, &o) in origin.iter().enumerate() {
                 if k != root {
-                    out.heads[k][c] += amount * (self.heads[k][c] - origin[c]);
+                    out.heads[k][c] += amount * (self.heads[k][c] - o);
                 }
-                out.tails[k][c] += amount * (self.tails[k][c] - origin[c]);
+                out.tails[k][c] += amount * (self.tails[k][c] - o);
             }
         }
     }
@@ -180,9 +180,9 @@ impl Skeleton {
         let mut moved = descendants(root);
         moved.push(root);
         for &k in &moved {
-            for c in 0..3 {
-                out.heads[k][c] += delta[c];
-                out.tails[k][c] += delta[c];
+            for (c, &d) in delta.iter().enumerate() {
+                out.heads[k][c] += d;
+                out.tails[k][c] += d;
             }
         }
     }

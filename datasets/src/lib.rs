@@ -1,0 +1,16 @@
+//! Scenes, cameras and poses in; loaders for public formats; the synthetic scene generator and
+//! its mesh renderer.
+//!
+//! So far: the CPU mesh renderer ([`render`]), SMPL-layout pose sequences in the AMASS `.npz`
+//! layout ([`pose_sequence`]), OBJ and PNG writers ([`obj`], [`image_io`]) and posing a body
+//! model for inspection ([`posing`], the `pose-body` command).
+
+pub mod error;
+pub mod files;
+pub mod image_io;
+pub mod obj;
+pub mod pose_sequence;
+pub mod posing;
+pub mod render;
+
+pub use error::DatasetError;

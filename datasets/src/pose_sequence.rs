@@ -1,0 +1,232 @@
+//! SMPL-layout pose sequences in the AMASS `.npz` layout.
+//!
+//! Keys read:
+//! - `poses` `[T, 3J]`: axis-angle per joint in the model's joint order, joint 0 the global
+//!   orientation (72 for SMPL, 156 for SMPL-H, 165 for SMPL-X);
+//! - `trans` `[T, 3]` (also accepted: `transl`, `translations`), metres; zeros when absent;
+//! - `betas` `[S]` (one shape for the sequence, as AMASS) or `[T, S]`; zeros when absent;
+//! - `mocap_framerate` or `mocap_frame_rate` (scalar), optional.
+//!
+//! A sequence made for a bigger skeleton drives a smaller one the way AMASS users do: an SMPL-H
+//! or SMPL-X sequence on a 24-joint body keeps its 22 body joints and leaves the two hand joints
+//! at rest. Anything else that does not fit is an error naming the key and the shape expected.
+
+use crate::DatasetError;
+use crate::files::write_atomically;
+use npyz::WriterBuilder;
+use npyz::npz::{NpzArchive, NpzWriter};
+use splatzoo_models::body::npz::{Array, decode_npy};
+use std::path::Path;
+
+/// A pose sequence, row-major, `f64`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseSequence {
+    /// Joints per frame (`poses` has `3 J` columns).
+    pub joints: usize,
+    /// `[T, 3J]` axis-angle.
+    pub poses: Vec<f64>,
+    /// `[T, 3]` global translation.
+    pub translations: Vec<f64>,
+    /// Shape coefficients per frame, `[T, S]`.
+    pub betas: Vec<f64>,
+    pub shape_count: usize,
+    pub fps: Option<f64>,
+}
+
+impl PoseSequence {
+    pub fn frames(&self) -> usize {
+        self.translations.len() / 3
+    }
+
+    /// Frame `t`'s pose vector.
+    pub fn pose(&self, t: usize) -> &[f64] {
+        &self.poses[t * 3 * self.joints..(t + 1) * 3 * self.joints]
+    }
+
+    pub fn translation(&self, t: usize) -> [f64; 3] {
+        [
+            self.translations[3 * t],
+            self.translations[3 * t + 1],
+            self.translations[3 * t + 2],
+        ]
+    }
+
+    pub fn frame_betas(&self, t: usize) -> &[f64] {
+        &self.betas[t * self.shape_count..(t + 1) * self.shape_count]
+    }
+
+    /// This sequence for a model with `joints` joints and `shape_count` shape coefficients:
+    /// the SMPL-H/X → SMPL body-joint mapping described in the module doc, and betas cut or
+    /// zero-padded to the model's count. `file` names the source in errors.
+    pub fn for_model(
+        &self,
+        joints: usize,
+        shape_count: usize,
+        file: &Path,
+    ) -> Result<Self, DatasetError> {
+        let t = self.frames();
+        let poses = if self.joints == joints {
+            self.poses.clone()
+        } else if joints == 24 && (self.joints == 52 || self.joints == 55) {
+            let mut out = vec![0.0; t * 72];
+            for f in 0..t {
+                out[f * 72..f * 72 + 66].copy_from_slice(&self.pose(f)[..66]);
+            }
+            out
+        } else {
+            return Err(DatasetError::field(
+                file,
+                "poses",
+                format!(
+                    "[T, {}] poses cannot drive a {joints}-joint model: expected [T, {}]",
+                    3 * self.joints,
+                    3 * joints
+                ),
+            ));
+        };
+        let mut betas = vec![0.0; t * shape_count];
+        let keep = shape_count.min(self.shape_count);
+        for f in 0..t {
+            betas[f * shape_count..f * shape_count + keep]
+                .copy_from_slice(&self.frame_betas(f)[..keep]);
+        }
+        Ok(Self {
+            joints,
+            poses,
+            translations: self.translations.clone(),
+            betas,
+            shape_count,
+            fps: self.fps,
+        })
+    }
+}
+
+fn first_present(
+    archive: &mut NpzArchive<std::io::BufReader<std::fs::File>>,
+    path: &Path,
+    keys: &[&str],
+) -> Result<Option<(String, Array)>, DatasetError> {
+    for &key in keys {
+        let npy = archive
+            .by_name(key)
+            .map_err(|e| DatasetError::field(path, key, format!("cannot read ({e})")))?;
+        if let Some(npy) = npy {
+            let array = decode_npy(npy).map_err(|p| DatasetError::field(path, key, p))?;
+            return Ok(Some((key.to_owned(), array)));
+        }
+    }
+    Ok(None)
+}
+
+fn check_finite(path: &Path, key: &str, a: &Array, columns: usize) -> Result<(), DatasetError> {
+    match a.values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(DatasetError::field(
+            path,
+            key,
+            format!(
+                "non-finite value at frame {}, column {}",
+                i / columns.max(1),
+                i % columns.max(1)
+            ),
+        )),
+    }
+}
+
+/// Reads a pose sequence (layout in the module doc).
+pub fn load_pose_sequence(path: &Path) -> Result<PoseSequence, DatasetError> {
+    let mut archive = NpzArchive::open(path)
+        .map_err(|e| DatasetError::file(path, format!("cannot open as .npz ({e})")))?;
+    let (_, poses) = first_present(&mut archive, path, &["poses"])?.ok_or_else(|| {
+        DatasetError::field(path, "poses", "missing: expected [T, 3J] axis-angle poses")
+    })?;
+    if poses.shape.len() != 2
+        || poses.shape[1] % 3 != 0
+        || poses.shape[0] == 0
+        || poses.shape[1] == 0
+    {
+        return Err(DatasetError::field(
+            path,
+            "poses",
+            format!(
+                "shape {:?}: expected [T, 3J] with T > 0 (72 for SMPL)",
+                poses.shape
+            ),
+        ));
+    }
+    let (t, width) = (poses.shape[0], poses.shape[1]);
+    check_finite(path, "poses", &poses, width)?;
+
+    let translations =
+        match first_present(&mut archive, path, &["trans", "transl", "translations"])? {
+            None => vec![0.0; 3 * t],
+            Some((key, a)) => {
+                if a.shape != [t, 3] {
+                    return Err(DatasetError::field(
+                        path,
+                        &key,
+                        format!("shape {:?}: expected [{t}, 3]", a.shape),
+                    ));
+                }
+                check_finite(path, &key, &a, 3)?;
+                a.values
+            }
+        };
+    let (betas, shape_count) = match first_present(&mut archive, path, &["betas"])? {
+        None => (Vec::new(), 0),
+        Some((key, a)) => {
+            check_finite(path, &key, &a, *a.shape.last().unwrap_or(&1))?;
+            match a.shape.as_slice() {
+                [s] => (a.values.repeat(t), *s),
+                [rows, s] if *rows == t => (a.values, *s),
+                [1, s] => (a.values.repeat(t), *s),
+                other => {
+                    return Err(DatasetError::field(
+                        path,
+                        &key,
+                        format!("shape {other:?}: expected [S] or [{t}, S]"),
+                    ));
+                }
+            }
+        }
+    };
+    let fps = first_present(&mut archive, path, &["mocap_framerate", "mocap_frame_rate"])?
+        .and_then(|(_, a)| a.values.first().copied())
+        .filter(|f| f.is_finite() && *f > 0.0);
+    Ok(PoseSequence {
+        joints: width / 3,
+        poses: poses.values,
+        translations,
+        betas,
+        shape_count,
+        fps,
+    })
+}
+
+/// Writes a pose sequence in the same layout (`betas` as `[T, S]`), atomically.
+pub fn write_pose_sequence(path: &Path, seq: &PoseSequence) -> Result<(), DatasetError> {
+    let t = seq.frames() as u64;
+    write_atomically(path, |tmp| {
+        let mut npz = NpzWriter::create(tmp)?;
+        {
+            let mut put = |name: &str, shape: &[u64], values: &[f64]| -> std::io::Result<()> {
+                let mut w = npz
+                    .array::<f64>(name, Default::default())?
+                    .default_dtype()
+                    .shape(shape)
+                    .begin_nd()?;
+                w.extend(values.iter().copied())?;
+                w.finish()
+            };
+            put("poses", &[t, 3 * seq.joints as u64], &seq.poses)?;
+            put("trans", &[t, 3], &seq.translations)?;
+            put("betas", &[t, seq.shape_count as u64], &seq.betas)?;
+            if let Some(fps) = seq.fps {
+                put("mocap_framerate", &[], &[fps])?;
+            }
+        }
+        let mut file = npz.zip_writer().finish().map_err(std::io::Error::other)?;
+        std::io::Write::flush(&mut file)?;
+        file.get_ref().sync_all()
+    })
+}

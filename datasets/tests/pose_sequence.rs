@@ -1,0 +1,177 @@
+//! Pose sequences in the AMASS `.npz` layout: round trip, AMASS dtypes and shapes, mapping
+//! SMPL-H/X sequences onto SMPL, and errors that name the file, key and expected shape.
+
+use npyz::WriterBuilder;
+use npyz::npz::NpzWriter;
+use splatzoo_datasets::pose_sequence::{PoseSequence, load_pose_sequence, write_pose_sequence};
+use std::path::Path;
+
+enum Values<'a> {
+    F32(&'a [f32]),
+    F64(&'a [f64]),
+}
+
+/// Writes arrays with the given dtypes and shapes, as numpy's `savez` would.
+fn write_npz(path: &Path, arrays: &[(&str, &[u64], Values)]) {
+    let mut npz = NpzWriter::create(path).unwrap();
+    for (name, shape, values) in arrays {
+        match values {
+            Values::F32(v) => {
+                let mut w = npz
+                    .array::<f32>(name, Default::default())
+                    .unwrap()
+                    .default_dtype()
+                    .shape(shape)
+                    .begin_nd()
+                    .unwrap();
+                w.extend(v.iter().copied()).unwrap();
+                w.finish().unwrap();
+            }
+            Values::F64(v) => {
+                let mut w = npz
+                    .array::<f64>(name, Default::default())
+                    .unwrap()
+                    .default_dtype()
+                    .shape(shape)
+                    .begin_nd()
+                    .unwrap();
+                w.extend(v.iter().copied()).unwrap();
+                w.finish().unwrap();
+            }
+        }
+    }
+    npz.zip_writer().finish().unwrap();
+}
+
+fn ramp(n: usize, scale: f32) -> Vec<f32> {
+    (0..n)
+        .map(|i| ((i * 37 % 101) as f32 / 101.0 - 0.5) * scale)
+        .collect()
+}
+
+#[test]
+fn round_trip_keeps_every_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("seq.npz");
+    let t = 5;
+    let seq = PoseSequence {
+        joints: 24,
+        poses: (0..t * 72).map(|i| (i as f64 * 0.013).sin()).collect(),
+        translations: (0..t * 3).map(|i| i as f64 * 0.1).collect(),
+        betas: (0..t * 10).map(|i| (i % 10) as f64 * 0.2 - 1.0).collect(),
+        shape_count: 10,
+        fps: Some(30.0),
+    };
+    write_pose_sequence(&path, &seq).unwrap();
+    assert_eq!(load_pose_sequence(&path).unwrap(), seq);
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 1, "temporary files left behind: {names:?}");
+}
+
+#[test]
+fn reads_amass_smplh_layout_and_maps_it_to_smpl() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("amass.npz");
+    let t = 4;
+    let poses = ramp(t * 156, 2.0);
+    let trans = ramp(t * 3, 1.0);
+    let betas = ramp(16, 3.0);
+    write_npz(
+        &path,
+        &[
+            ("poses", &[t as u64, 156], Values::F32(&poses)),
+            ("trans", &[t as u64, 3], Values::F32(&trans)),
+            (
+                "betas",
+                &[16],
+                Values::F64(&betas.iter().map(|&b| b as f64).collect::<Vec<_>>()),
+            ),
+            ("mocap_framerate", &[], Values::F64(&[120.0])),
+        ],
+    );
+    let seq = load_pose_sequence(&path).unwrap();
+    assert_eq!(
+        (seq.joints, seq.frames(), seq.shape_count, seq.fps),
+        (52, t, 16, Some(120.0))
+    );
+    assert_eq!(seq.frame_betas(3)[5], betas[5] as f64);
+    let smpl = seq.for_model(24, 10, &path).unwrap();
+    assert_eq!(smpl.joints, 24);
+    for f in 0..t {
+        assert_eq!(&smpl.pose(f)[..66], &seq.pose(f)[..66]);
+        assert!(
+            smpl.pose(f)[66..].iter().all(|&x| x == 0.0),
+            "hand joints at rest"
+        );
+        assert_eq!(smpl.frame_betas(f).len(), 10);
+    }
+    // Fewer betas than the model takes are zero-padded.
+    let padded = seq.for_model(52, 20, &path).unwrap();
+    assert_eq!(padded.frame_betas(0)[16..], [0.0; 4]);
+}
+
+fn error_of(arrays: &[(&str, &[u64], Values)]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.npz");
+    write_npz(&path, arrays);
+    let e = load_pose_sequence(&path).unwrap_err().to_string();
+    assert!(e.contains("bad.npz"), "error does not name the file: {e}");
+    e
+}
+
+#[test]
+fn bad_files_are_named_with_key_and_expected_shape() {
+    let p = ramp(2 * 72, 1.0);
+    let e = error_of(&[("trans", &[2, 3], Values::F32(&p[..6]))]);
+    assert!(e.contains("`poses`") && e.contains("[T, 3J]"), "{e}");
+    let e = error_of(&[("poses", &[2, 70], Values::F32(&p[..140]))]);
+    assert!(
+        e.contains("`poses`") && e.contains("[2, 70]") && e.contains("[T, 3J]"),
+        "{e}"
+    );
+    let e = error_of(&[
+        ("poses", &[2, 72], Values::F32(&p)),
+        ("trans", &[3, 2], Values::F32(&p[..6])),
+    ]);
+    assert!(e.contains("`trans`") && e.contains("[2, 3]"), "{e}");
+    let e = error_of(&[
+        ("poses", &[2, 72], Values::F32(&p)),
+        ("betas", &[3, 10], Values::F32(&ramp(30, 1.0))),
+    ]);
+    assert!(e.contains("`betas`") && e.contains("[S] or [2, S]"), "{e}");
+    let mut nan = p.clone();
+    nan[72 + 5] = f32::NAN;
+    let e = error_of(&[("poses", &[2, 72], Values::F32(&nan))]);
+    assert!(
+        e.contains("`poses`") && e.contains("frame 1, column 5"),
+        "{e}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let garbage = dir.path().join("garbage.npz");
+    std::fs::write(&garbage, b"not a zip").unwrap();
+    let e = load_pose_sequence(&garbage).unwrap_err().to_string();
+    assert!(e.contains("garbage.npz") && e.contains(".npz"), "{e}");
+}
+
+#[test]
+fn a_sequence_that_cannot_drive_the_model_says_so() {
+    let seq = PoseSequence {
+        joints: 24,
+        poses: vec![0.0; 72],
+        translations: vec![0.0; 3],
+        betas: vec![],
+        shape_count: 0,
+        fps: None,
+    };
+    let e = seq
+        .for_model(55, 10, Path::new("walk.npz"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("walk.npz") && e.contains("`poses`") && e.contains("[T, 165]"),
+        "{e}"
+    );
+}
