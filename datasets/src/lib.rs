@@ -14,3 +14,4 @@ pub mod posing;
 pub mod render;
 
 pub use error::DatasetError;
+pub mod synth;
