@@ -24,6 +24,21 @@ pub fn srgb_to_linear(x: f32) -> f32 {
     }
 }
 
+/// A colour from hue (turns, [0, 1)), saturation and value, each channel in [0, 1].
+pub fn hsv(hue: f64, saturation: f64, value: f64) -> [f32; 3] {
+    let h = hue.rem_euclid(1.0) * 6.0;
+    let x = 1.0 - (h % 2.0 - 1.0).abs();
+    let (r, g, b) = match h as u32 {
+        0 => (1.0, x, 0.0),
+        1 => (x, 1.0, 0.0),
+        2 => (0.0, 1.0, x),
+        3 => (0.0, x, 1.0),
+        4 => (x, 0.0, 1.0),
+        _ => (1.0, 0.0, x),
+    };
+    [r, g, b].map(|c| (value * (1.0 - saturation + saturation * c)) as f32)
+}
+
 /// Writes `[H, W]` linear RGB as an sRGB PNG.
 pub fn write_rgb_png(
     path: &Path,

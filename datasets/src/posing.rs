@@ -2,6 +2,7 @@
 //! the differentiable LBS of `splatzoo-models`, batched), and a contact-sheet preview rendered
 //! with the mesh renderer, coloured by skinning weights so a broken rig shows at a glance.
 
+use crate::image_io::hsv;
 use crate::pose_sequence::PoseSequence;
 use crate::render::{Albedo, Lighting, MeshInstance, RenderSettings, render};
 use burn::tensor::{Device, Tensor, TensorData};
@@ -70,19 +71,9 @@ pub fn pose_frames(model: &BodyModel, seq: &PoseSequence, device: &Device) -> Ve
     out
 }
 
-/// A colour per joint, spread around the hue circle.
+/// A colour per joint, spread around the hue circle by the golden ratio.
 fn joint_colour(j: usize) -> [f32; 3] {
-    let h = (j as f32 * 0.618_034) % 1.0 * 6.0;
-    let x = 1.0 - (h % 2.0 - 1.0).abs();
-    let (r, g, b) = match h as u32 {
-        0 => (1.0, x, 0.0),
-        1 => (x, 1.0, 0.0),
-        2 => (0.0, 1.0, x),
-        3 => (0.0, x, 1.0),
-        4 => (x, 0.0, 1.0),
-        _ => (1.0, 0.0, x),
-    };
-    [0.15 + 0.7 * r, 0.15 + 0.7 * g, 0.15 + 0.7 * b]
+    hsv(j as f64 * 0.618_034, 0.82, 0.85)
 }
 
 /// Per-vertex colours blending each joint's colour by the skinning weights.

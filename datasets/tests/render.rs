@@ -12,6 +12,24 @@ fn quad(corners: [[f32; 3]; 4]) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     (corners.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
 }
 
+/// The built-in body's rest mesh as position and face rows.
+fn body_mesh() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let body = builtin_body();
+    let p = body
+        .model
+        .template
+        .chunks(3)
+        .map(|v| [v[0], v[1], v[2]])
+        .collect();
+    let f = body
+        .model
+        .faces
+        .chunks(3)
+        .map(|v| [v[0], v[1], v[2]])
+        .collect();
+    (p, f)
+}
+
 fn flat_light() -> Lighting {
     Lighting {
         ambient: [1.0; 3],
@@ -309,19 +327,7 @@ fn point_light_casts_a_shadow_under_an_occluder() {
 /// depth by finite differences agree with the rendered normals.
 #[test]
 fn body_masks_match_depth_and_normals_match_depth_gradients() {
-    let body = builtin_body();
-    let p: Vec<[f32; 3]> = body
-        .model
-        .template
-        .chunks(3)
-        .map(|v| [v[0], v[1], v[2]])
-        .collect();
-    let f: Vec<[u32; 3]> = body
-        .model
-        .faces
-        .chunks(3)
-        .map(|v| [v[0], v[1], v[2]])
-        .collect();
+    let (p, f) = body_mesh();
     let camera = Camera::look_at(
         [0.3, 0.0, 2.5],
         [0.0, -0.3, 0.0],
@@ -397,19 +403,7 @@ fn body_masks_match_depth_and_normals_match_depth_gradients() {
 
 #[test]
 fn output_does_not_depend_on_thread_count() {
-    let body = builtin_body();
-    let p: Vec<[f32; 3]> = body
-        .model
-        .template
-        .chunks(3)
-        .map(|v| [v[0], v[1], v[2]])
-        .collect();
-    let f: Vec<[u32; 3]> = body
-        .model
-        .faces
-        .chunks(3)
-        .map(|v| [v[0], v[1], v[2]])
-        .collect();
+    let (p, f) = body_mesh();
     let camera = Camera::look_at(
         [0.0, 0.0, 2.5],
         [0.0, -0.3, 0.0],

@@ -3,6 +3,7 @@
 //! face (eyes, brows, mouth), baked into a texture in the body's UV atlas. Colours are functions
 //! of the rest-pose surface point, so patterns are continuous across UV seams.
 
+use crate::image_io::hsv;
 use crate::render::Texture;
 use splatzoo_models::body::BuiltinBody;
 use splatzoo_models::body::builtin::SHAPE_COUNT;
@@ -89,20 +90,9 @@ impl Rng {
     }
 
     fn colour(&mut self) -> [f32; 3] {
-        // HSV with moderate saturation, to linear RGB.
-        let h = self.next() * 6.0;
-        let s = self.range(0.2, 0.85);
-        let v = self.range(0.15, 0.85);
-        let x = 1.0 - (h % 2.0 - 1.0).abs();
-        let (r, g, b) = match h as u32 {
-            0 => (1.0, x, 0.0),
-            1 => (x, 1.0, 0.0),
-            2 => (0.0, 1.0, x),
-            3 => (0.0, x, 1.0),
-            4 => (x, 0.0, 1.0),
-            _ => (1.0, 0.0, x),
-        };
-        [r, g, b].map(|c| (v * (1.0 - s + s * c)) as f32)
+        let hue = self.next();
+        let saturation = self.range(0.2, 0.85);
+        hsv(hue, saturation, self.range(0.15, 0.85))
     }
 
     fn garment(&mut self) -> Garment {
