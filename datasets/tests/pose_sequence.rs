@@ -11,33 +11,31 @@ enum Values<'a> {
     F64(&'a [f64]),
 }
 
+/// Writes one array in its own dtype.
+fn put<T: npyz::AutoSerialize + Copy, W: std::io::Write + std::io::Seek>(
+    npz: &mut NpzWriter<W>,
+    name: &str,
+    shape: &[u64],
+    values: &[T],
+) {
+    let mut w = npz
+        .array::<T>(name, Default::default())
+        .unwrap()
+        .default_dtype()
+        .shape(shape)
+        .begin_nd()
+        .unwrap();
+    w.extend(values.iter().copied()).unwrap();
+    w.finish().unwrap();
+}
+
 /// Writes arrays with the given dtypes and shapes, as numpy's `savez` would.
 fn write_npz(path: &Path, arrays: &[(&str, &[u64], Values)]) {
     let mut npz = NpzWriter::create(path).unwrap();
     for (name, shape, values) in arrays {
         match values {
-            Values::F32(v) => {
-                let mut w = npz
-                    .array::<f32>(name, Default::default())
-                    .unwrap()
-                    .default_dtype()
-                    .shape(shape)
-                    .begin_nd()
-                    .unwrap();
-                w.extend(v.iter().copied()).unwrap();
-                w.finish().unwrap();
-            }
-            Values::F64(v) => {
-                let mut w = npz
-                    .array::<f64>(name, Default::default())
-                    .unwrap()
-                    .default_dtype()
-                    .shape(shape)
-                    .begin_nd()
-                    .unwrap();
-                w.extend(v.iter().copied()).unwrap();
-                w.finish().unwrap();
-            }
+            Values::F32(v) => put(&mut npz, name, shape, v),
+            Values::F64(v) => put(&mut npz, name, shape, v),
         }
     }
     npz.zip_writer().finish().unwrap();
