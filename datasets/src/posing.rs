@@ -13,9 +13,39 @@ use splatzoo_rasterizer::Camera;
 /// Frames posed per LBS call.
 const BATCH: usize = 32;
 
+/// One posed frame: what rendering a body and its rigidly attached accessories needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PosedFrame {
+    /// World-space vertices.
+    pub vertices: Vec<[f32; 3]>,
+    /// World-space joint positions.
+    pub joints: Vec<[f32; 3]>,
+    /// World-space joint orientations (row-major 3×3).
+    pub joint_rotations: Vec<[[f32; 3]; 3]>,
+}
+
 /// World-space vertices of every frame of `seq` (already fitted to `model` with
 /// [`PoseSequence::for_model`]).
 pub fn pose_frames(model: &BodyModel, seq: &PoseSequence, device: &Device) -> Vec<Vec<[f32; 3]>> {
+    pose_frames_with_joints(model, seq, device)
+        .into_iter()
+        .map(|f| f.vertices)
+        .collect()
+}
+
+fn floats<const D: usize>(t: Tensor<D>) -> Vec<f32> {
+    t.into_data()
+        .convert::<f32>()
+        .try_into_vec::<f32>()
+        .expect("f32 tensor")
+}
+
+/// Vertices, joints and joint orientations of every frame of `seq` (fitted to `model`).
+pub fn pose_frames_with_joints(
+    model: &BodyModel,
+    seq: &PoseSequence,
+    device: &Device,
+) -> Vec<PosedFrame> {
     assert_eq!(
         seq.joints,
         model.joint_count(),
@@ -23,6 +53,7 @@ pub fn pose_frames(model: &BodyModel, seq: &PoseSequence, device: &Device) -> Ve
     );
     let tensors = BodyTensors::new(model, device);
     let v = model.vertex_count();
+    let j = model.joint_count();
     let mut out = Vec::with_capacity(seq.frames());
     for start in (0..seq.frames()).step_by(BATCH) {
         let end = (start + BATCH).min(seq.frames());
@@ -53,19 +84,20 @@ pub fn pose_frames(model: &BodyModel, seq: &PoseSequence, device: &Device) -> Ve
             Tensor::<2>::from_data(TensorData::new(pose, [b, j3]), device),
             Tensor::<2>::from_data(TensorData::new(trans, [b, 3]), device),
         );
-        let vertices: Vec<f32> = lbs::pose(&tensors, &input)
-            .vertices
-            .into_data()
-            .convert::<f32>()
-            .try_into_vec::<f32>()
-            .expect("f32 vertices");
+        let posed = lbs::pose(&tensors, &input);
+        let vertices = floats(posed.vertices);
+        let joints = floats(posed.joints);
+        let rotations = floats(posed.joint_rotations);
+        let triples = |x: &[f32]| x.chunks(3).map(|p| [p[0], p[1], p[2]]).collect::<Vec<_>>();
         for f in 0..b {
-            out.push(
-                vertices[f * v * 3..(f + 1) * v * 3]
-                    .chunks(3)
-                    .map(|p| [p[0], p[1], p[2]])
+            out.push(PosedFrame {
+                vertices: triples(&vertices[f * v * 3..(f + 1) * v * 3]),
+                joints: triples(&joints[f * j * 3..(f + 1) * j * 3]),
+                joint_rotations: rotations[f * j * 9..(f + 1) * j * 9]
+                    .chunks(9)
+                    .map(|m| [[m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]])
                     .collect(),
-            );
+            });
         }
     }
     out

@@ -7,6 +7,9 @@ pub struct Texture {
     pub height: usize,
     /// `[H, W]` texels.
     pub texels: Vec<[f32; 3]>,
+    /// Tile the texture outside [0, 1]² (ground planes, walls) instead of clamping to the edge
+    /// (UV atlases).
+    pub repeat: bool,
 }
 
 impl Texture {
@@ -23,16 +26,37 @@ impl Texture {
             width,
             height,
             texels,
+            repeat: false,
         }
     }
 
-    /// Bilinear sample at (u, v), clamped to the edge.
+    /// The same texture, tiled outside [0, 1]².
+    pub fn repeating(self) -> Self {
+        Self {
+            repeat: true,
+            ..self
+        }
+    }
+
+    /// Bilinear sample at (u, v), clamped to the edge or tiled.
     pub fn sample(&self, u: f32, v: f32) -> [f32; 3] {
-        let x = (u * self.width as f32 - 0.5).clamp(0.0, (self.width - 1) as f32);
-        let y = ((1.0 - v) * self.height as f32 - 0.5).clamp(0.0, (self.height - 1) as f32);
-        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        let (w, h) = (self.width, self.height);
+        let (x0, y0, x1, y1, fx, fy);
+        if self.repeat {
+            let x = (u - u.floor()) * w as f32 - 0.5;
+            let y = (1.0 - v - (1.0 - v).floor()) * h as f32 - 0.5;
+            let (xf, yf) = (x.floor(), y.floor());
+            (fx, fy) = (x - xf, y - yf);
+            x0 = (xf as i64).rem_euclid(w as i64) as usize;
+            y0 = (yf as i64).rem_euclid(h as i64) as usize;
+            (x1, y1) = ((x0 + 1) % w, (y0 + 1) % h);
+        } else {
+            let x = (u * w as f32 - 0.5).clamp(0.0, (w - 1) as f32);
+            let y = ((1.0 - v) * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
+            (x0, y0) = (x.floor() as usize, y.floor() as usize);
+            (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+            (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        }
         let t = |cx: usize, cy: usize| self.texels[cy * self.width + cx];
         let mut out = [0.0; 3];
         for (c, o) in out.iter_mut().enumerate() {

@@ -3,6 +3,7 @@
 //! face (eyes, brows, mouth), baked into a texture in the body's UV atlas. Colours are functions
 //! of the rest-pose surface point, so patterns are continuous across UV seams.
 
+use super::rng::Rng;
 use crate::image_io::hsv;
 use crate::render::Texture;
 use splatzoo_models::body::BuiltinBody;
@@ -26,7 +27,8 @@ const HAIR_COLOURS: [[f32; 3]; 5] = [
     [0.45, 0.45, 0.45],
 ];
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
 pub enum Fabric {
     Solid,
     /// Horizontal stripes of the second colour, `period` metres apart.
@@ -41,13 +43,13 @@ pub enum Fabric {
     },
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Garment {
     pub colour: [f32; 3],
     pub fabric: Fabric,
 }
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Identity {
     /// Shape coefficients for the built-in body.
     pub betas: Vec<f64>,
@@ -63,52 +65,35 @@ pub struct Identity {
     pub shoes: [f32; 3],
 }
 
-/// A small deterministic generator (SplitMix64), so identities do not depend on a crate's
-/// stream across versions.
-struct Rng(u64);
+fn colour(rng: &mut Rng) -> [f32; 3] {
+    let hue = rng.next();
+    let saturation = rng.range(0.2, 0.85);
+    hsv(hue, saturation, rng.range(0.15, 0.85))
+}
 
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
+/// A muted colour of random hue with value in [lo, hi] (walls, furniture, facades).
+pub(crate) fn colour_between(rng: &mut Rng, lo: f64, hi: f64) -> [f32; 3] {
+    let hue = rng.next();
+    let saturation = rng.range(0.1, 0.5);
+    hsv(hue, saturation, rng.range(lo, hi))
+}
 
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-
-    fn pick<T: Copy>(&mut self, items: &[T]) -> T {
-        items[((self.next() * items.len() as f64) as usize).min(items.len() - 1)]
-    }
-
-    /// A roughly standard normal sample (sum of uniforms).
-    fn normal(&mut self) -> f64 {
-        (0..6).map(|_| self.next()).sum::<f64>() - 3.0
-    }
-
-    fn colour(&mut self) -> [f32; 3] {
-        let hue = self.next();
-        let saturation = self.range(0.2, 0.85);
-        hsv(hue, saturation, self.range(0.15, 0.85))
-    }
-
-    fn garment(&mut self) -> Garment {
-        let colour = self.colour();
-        let fabric = match (self.next() * 3.0) as u32 {
-            0 => Fabric::Solid,
-            1 => Fabric::Stripes {
-                other: self.colour(),
-                period: self.range(0.02, 0.08),
-            },
-            _ => Fabric::Checks {
-                other: self.colour(),
-                period: self.range(0.03, 0.09),
-            },
-        };
-        Garment { colour, fabric }
+fn garment(rng: &mut Rng) -> Garment {
+    let base = colour(rng);
+    let fabric = match (rng.next() * 3.0) as u32 {
+        0 => Fabric::Solid,
+        1 => Fabric::Stripes {
+            other: colour(rng),
+            period: rng.range(0.02, 0.08),
+        },
+        _ => Fabric::Checks {
+            other: colour(rng),
+            period: rng.range(0.03, 0.09),
+        },
+    };
+    Garment {
+        colour: base,
+        fabric,
     }
 }
 
@@ -124,11 +109,11 @@ impl Identity {
             skin,
             hair: rng.pick(&HAIR_COLOURS),
             hair_length: rng.range(0.30, 0.47),
-            top: rng.garment(),
+            top: garment(&mut rng),
             long_sleeves: rng.next() < 0.5,
-            bottom: rng.garment(),
+            bottom: garment(&mut rng),
             trousers: rng.next() < 0.7,
-            shoes: rng.colour().map(|c| c * 0.5),
+            shoes: colour(&mut rng).map(|c| c * 0.5),
         }
     }
 
@@ -325,6 +310,7 @@ impl Identity {
             width: size,
             height: size,
             texels,
+            repeat: false,
         }
     }
 }

@@ -106,6 +106,17 @@ fn relaxed() -> [M3; 24] {
     local
 }
 
+/// The SMPL-layout pose (72 axis-angle values, root at identity) of standing relaxed with the
+/// arms lowered: the pose accessories are fitted in.
+pub fn relaxed_pose() -> [f64; 72] {
+    let local = relaxed();
+    let mut pose = [0.0; 72];
+    for j in 1..24 {
+        pose[3 * j..3 * j + 3].copy_from_slice(&log(local[j]));
+    }
+    pose
+}
+
 /// A gait cycle at phase `phase` (radians), amplitude scaled by `amount` in [0, 1].
 fn gait(phase: f64, amount: f64) -> Frame {
     let mut local = relaxed();

@@ -1,0 +1,30 @@
+//! The synthetic generator's random numbers: SplitMix64, so a seed gives the same scene
+//! whatever crate versions are in the lock file.
+
+/// SplitMix64 with a few distributions on top.
+pub(crate) struct Rng(pub(crate) u64);
+
+impl Rng {
+    pub(crate) fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    pub(crate) fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+
+    pub(crate) fn pick<T: Copy>(&mut self, items: &[T]) -> T {
+        items[((self.next() * items.len() as f64) as usize).min(items.len() - 1)]
+    }
+
+    /// A standard normal sample (Box–Muller).
+    pub(crate) fn normal(&mut self) -> f64 {
+        let u = 1.0 - self.next();
+        let v = self.next();
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
