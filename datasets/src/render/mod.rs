@@ -201,12 +201,53 @@ fn norm(a: V3) -> f64 {
     (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
+/// The shadow map of `lighting`'s light over `meshes` (`None` without a light, shadows or
+/// meshes). It depends only on the geometry and the light: compute it once and pass it to
+/// [`render_with_shadows`] for every camera of a frame.
+pub fn shadow_map(meshes: &[MeshInstance], lighting: &Lighting) -> Option<ShadowMap> {
+    let refs: Vec<MeshRef> = meshes
+        .iter()
+        .map(|m| MeshRef {
+            positions: m.positions,
+            faces: m.faces,
+        })
+        .collect();
+    match (lighting.light, lighting.shadow_resolution) {
+        (Some(light), Some(res)) if !meshes.is_empty() => {
+            let (centre, radius) = bounding_sphere(meshes);
+            Some(match light {
+                Light::Directional { direction, .. } => {
+                    ShadowMap::directional(&refs, direction.map(f64::from), centre, radius, res)
+                }
+                Light::Point { position, .. } => {
+                    let p = position.map(f64::from);
+                    ShadowMap::point(&refs, p, norm(sub(p, centre)) + 2.0 * radius, res)
+                }
+            })
+        }
+        _ => None,
+    }
+}
+
 /// Renders `meshes` from `camera`.
 pub fn render(
     meshes: &[MeshInstance],
     camera: &Camera,
     lighting: &Lighting,
     settings: &RenderSettings,
+) -> MeshRender {
+    let shadows = shadow_map(meshes, lighting);
+    render_with_shadows(meshes, camera, lighting, settings, shadows.as_ref())
+}
+
+/// Renders `meshes` from `camera` with a precomputed [`shadow_map`] of the same meshes and
+/// light (`None`: no shadows).
+pub fn render_with_shadows(
+    meshes: &[MeshInstance],
+    camera: &Camera,
+    lighting: &Lighting,
+    settings: &RenderSettings,
+    shadows: Option<&ShadowMap>,
 ) -> MeshRender {
     let s = settings.supersample.max(1);
     let view = camera_view(camera, s);
@@ -222,21 +263,6 @@ pub fn render(
         .iter()
         .map(|m| m.smooth.then(|| vertex_normals(m.positions, m.faces)))
         .collect();
-    let shadows = match (lighting.light, lighting.shadow_resolution) {
-        (Some(light), Some(res)) if !meshes.is_empty() => {
-            let (centre, radius) = bounding_sphere(meshes);
-            Some(match light {
-                Light::Directional { direction, .. } => {
-                    ShadowMap::directional(&refs, direction.map(f64::from), centre, radius, res)
-                }
-                Light::Point { position, .. } => {
-                    let p = position.map(f64::from);
-                    ShadowMap::point(&refs, p, norm(sub(p, centre)) + 2.0 * radius, res)
-                }
-            })
-        }
-        _ => None,
-    };
     let camera_position = camera.position().map(f64::from);
 
     // Shade every sample: (colour, unshadowed colour, world normal).
@@ -300,7 +326,7 @@ pub fn render(
             Some(Light::Directional { direction, color }) => {
                 let l = normalize(direction.map(|x| -x as f64));
                 let cos = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]).max(0.0);
-                let lit = shadows.as_ref().map_or(1.0, |s| s.lit(p));
+                let lit = shadows.map_or(1.0, |s| s.lit(p));
                 (color.map(|c| c as f64 * cos), lit)
             }
             Some(Light::Point { position, color }) => {
@@ -308,7 +334,7 @@ pub fn render(
                 let r2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).max(1e-6);
                 let l = normalize(d);
                 let cos = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]).max(0.0);
-                let lit = shadows.as_ref().map_or(1.0, |s| s.lit(p));
+                let lit = shadows.map_or(1.0, |s| s.lit(p));
                 (color.map(|c| c as f64 * cos / r2), lit)
             }
         };

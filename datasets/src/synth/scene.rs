@@ -13,7 +13,11 @@ use super::prior::PriorNoise;
 use super::rig::CameraTrack;
 use crate::pose_sequence::PoseSequence;
 use crate::posing::{PosedFrame, pose_frames_with_joints};
-use crate::render::{Albedo, Lighting, MeshInstance, MeshRender, RenderSettings, Texture, render};
+use crate::render::shadow::ShadowMap;
+use crate::render::{
+    Albedo, Lighting, MeshInstance, MeshRender, RenderSettings, Texture, render_with_shadows,
+    shadow_map,
+};
 use burn::tensor::Device;
 use rayon::prelude::*;
 use splatzoo_models::body::builtin_body;
@@ -185,29 +189,26 @@ impl Scene {
         person.accessories[a].place(&person.frames[frame])
     }
 
-    /// Renders camera track `track` at `frame`; `with_people` false renders the surroundings
-    /// alone (used to check masks against depth).
-    pub fn render_view(&self, frame: usize, track: usize, with_people: bool) -> ViewTruth {
-        assert!(
-            frame < self.frame_count,
-            "frame {frame} of {}",
-            self.frame_count
-        );
+    /// Accessory positions of every person at `frame` (`[person][accessory]`).
+    fn accessories_at(&self, frame: usize) -> Vec<Vec<Vec<[f32; 3]>>> {
+        (0..self.people.len())
+            .map(|k| {
+                (0..self.people[k].accessories.len())
+                    .map(|a| self.accessory_vertices(k, a, frame))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The meshes of `frame`: surroundings, then (when `accessories` is given) each person and
+    /// their accessories at those positions.
+    fn meshes<'a>(
+        &'a self,
+        frame: usize,
+        body_coords: &'a [[f32; 2]],
+        accessories: Option<&'a [Vec<Vec<[f32; 3]>>]>,
+    ) -> Vec<MeshInstance<'a>> {
         let body = builtin_body();
-        let faces = triangles(&body.model.faces);
-        let corners = triangles(&body.uv.faces);
-        let coords: Vec<[f32; 2]> = body.uv.coords.chunks(2).map(|c| [c[0], c[1]]).collect();
-        let accessory_positions: Vec<Vec<Vec<[f32; 3]>>> = if with_people {
-            (0..self.people.len())
-                .map(|k| {
-                    (0..self.people[k].accessories.len())
-                        .map(|a| self.accessory_vertices(k, a, frame))
-                        .collect()
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
         let mut meshes = Vec::new();
         for prop in &self.environment.props {
             meshes.push(MeshInstance {
@@ -225,30 +226,41 @@ impl Scene {
                 smooth: false,
             });
         }
-        if with_people {
-            for (k, person) in self.people.iter().enumerate() {
+        let Some(accessories) = accessories else {
+            return meshes;
+        };
+        for (k, person) in self.people.iter().enumerate() {
+            meshes.push(MeshInstance {
+                positions: &person.frames[frame].vertices,
+                faces: triangles(&body.model.faces),
+                albedo: Albedo::Textured {
+                    coords: body_coords,
+                    corners: triangles(&body.uv.faces),
+                    texture: &person.texture,
+                },
+                label: body_label(k),
+                smooth: true,
+            });
+            for (a, accessory) in person.accessories.iter().enumerate() {
                 meshes.push(MeshInstance {
-                    positions: &person.frames[frame].vertices,
-                    faces,
-                    albedo: Albedo::Textured {
-                        coords: &coords,
-                        corners,
-                        texture: &person.texture,
-                    },
-                    label: body_label(k),
-                    smooth: true,
+                    positions: &accessories[k][a],
+                    faces: &accessory.mesh.faces,
+                    albedo: Albedo::PerVertex(&accessory.mesh.colours),
+                    label: accessory_label(k),
+                    smooth: false,
                 });
-                for (a, accessory) in person.accessories.iter().enumerate() {
-                    meshes.push(MeshInstance {
-                        positions: &accessory_positions[k][a],
-                        faces: &accessory.mesh.faces,
-                        albedo: Albedo::PerVertex(&accessory.mesh.colours),
-                        label: accessory_label(k),
-                        smooth: false,
-                    });
-                }
             }
         }
+        meshes
+    }
+
+    fn view(
+        &self,
+        frame: usize,
+        track: usize,
+        meshes: &[MeshInstance],
+        shadows: Option<&ShadowMap>,
+    ) -> ViewTruth {
         let camera = self.tracks[track].cameras[frame];
         let settings = RenderSettings {
             background: self.environment.background,
@@ -258,17 +270,55 @@ impl Scene {
             frame,
             track,
             camera,
-            render: render(&meshes, &camera, &self.lighting, &settings),
+            render: render_with_shadows(meshes, &camera, &self.lighting, &settings, shadows),
         }
     }
 
-    /// Every camera at `frame`, views rendered in parallel.
+    /// Renders camera track `track` at `frame`; `with_people` false renders the surroundings
+    /// alone (used to check masks against depth).
+    pub fn render_view(&self, frame: usize, track: usize, with_people: bool) -> ViewTruth {
+        assert!(
+            frame < self.frame_count,
+            "frame {frame} of {}",
+            self.frame_count
+        );
+        let coords = body_coords();
+        let accessories = self.accessories_at(frame);
+        let meshes = self.meshes(
+            frame,
+            &coords,
+            with_people.then_some(accessories.as_slice()),
+        );
+        let shadows = shadow_map(&meshes, &self.lighting);
+        self.view(frame, track, &meshes, shadows.as_ref())
+    }
+
+    /// Every camera at `frame`: one shadow map, views rendered in parallel.
     pub fn render_frame(&self, frame: usize) -> Vec<ViewTruth> {
+        assert!(
+            frame < self.frame_count,
+            "frame {frame} of {}",
+            self.frame_count
+        );
+        let coords = body_coords();
+        let accessories = self.accessories_at(frame);
+        let meshes = self.meshes(frame, &coords, Some(&accessories));
+        let shadows = shadow_map(&meshes, &self.lighting);
         (0..self.tracks.len())
             .into_par_iter()
-            .map(|t| self.render_view(frame, t, true))
+            .map(|t| self.view(frame, t, &meshes, shadows.as_ref()))
             .collect()
     }
+}
+
+/// The built-in body's texture coordinates as pairs.
+fn body_coords() -> Vec<[f32; 2]> {
+    builtin_body()
+        .uv
+        .coords
+        .chunks(2)
+        .map(|c| [c[0], c[1]])
+        .collect()
 }
 
 /// Flat `[F·3]` indices as triangles.
