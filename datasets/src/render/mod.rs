@@ -201,17 +201,21 @@ fn norm(a: V3) -> f64 {
     (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
-/// The shadow map of `lighting`'s light over `meshes` (`None` without a light, shadows or
-/// meshes). It depends only on the geometry and the light: compute it once and pass it to
-/// [`render_with_shadows`] for every camera of a frame.
-pub fn shadow_map(meshes: &[MeshInstance], lighting: &Lighting) -> Option<ShadowMap> {
-    let refs: Vec<MeshRef> = meshes
+fn mesh_refs<'a>(meshes: &[MeshInstance<'a>]) -> Vec<MeshRef<'a>> {
+    meshes
         .iter()
         .map(|m| MeshRef {
             positions: m.positions,
             faces: m.faces,
         })
-        .collect();
+        .collect()
+}
+
+/// The shadow map of `lighting`'s light over `meshes` (`None` without a light, shadows or
+/// meshes). It depends only on the geometry and the light: compute it once and pass it to
+/// [`render_with_shadows`] for every camera of a frame.
+pub fn shadow_map(meshes: &[MeshInstance], lighting: &Lighting) -> Option<ShadowMap> {
+    let refs = mesh_refs(meshes);
     match (lighting.light, lighting.shadow_resolution) {
         (Some(light), Some(res)) if !meshes.is_empty() => {
             let (centre, radius) = bounding_sphere(meshes);
@@ -251,13 +255,7 @@ pub fn render_with_shadows(
 ) -> MeshRender {
     let s = settings.supersample.max(1);
     let view = camera_view(camera, s);
-    let refs: Vec<MeshRef> = meshes
-        .iter()
-        .map(|m| MeshRef {
-            positions: m.positions,
-            faces: m.faces,
-        })
-        .collect();
+    let refs = mesh_refs(meshes);
     let hits = visibility::rasterize(&refs, &view);
     let normals: Vec<Option<Vec<[f32; 3]>>> = meshes
         .iter()

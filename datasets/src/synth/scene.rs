@@ -277,6 +277,19 @@ impl Scene {
     /// Renders camera track `track` at `frame`; `with_people` false renders the surroundings
     /// alone (used to check masks against depth).
     pub fn render_view(&self, frame: usize, track: usize, with_people: bool) -> ViewTruth {
+        self.render_tracks(frame, &[track], with_people)
+            .pop()
+            .expect("one view")
+    }
+
+    /// Every camera at `frame`.
+    pub fn render_frame(&self, frame: usize) -> Vec<ViewTruth> {
+        let all: Vec<usize> = (0..self.tracks.len()).collect();
+        self.render_tracks(frame, &all, true)
+    }
+
+    /// `tracks` at `frame`: one shadow map, views rendered in parallel.
+    fn render_tracks(&self, frame: usize, tracks: &[usize], with_people: bool) -> Vec<ViewTruth> {
         assert!(
             frame < self.frame_count,
             "frame {frame} of {}",
@@ -290,23 +303,9 @@ impl Scene {
             with_people.then_some(accessories.as_slice()),
         );
         let shadows = shadow_map(&meshes, &self.lighting);
-        self.view(frame, track, &meshes, shadows.as_ref())
-    }
-
-    /// Every camera at `frame`: one shadow map, views rendered in parallel.
-    pub fn render_frame(&self, frame: usize) -> Vec<ViewTruth> {
-        assert!(
-            frame < self.frame_count,
-            "frame {frame} of {}",
-            self.frame_count
-        );
-        let coords = body_coords();
-        let accessories = self.accessories_at(frame);
-        let meshes = self.meshes(frame, &coords, Some(&accessories));
-        let shadows = shadow_map(&meshes, &self.lighting);
-        (0..self.tracks.len())
-            .into_par_iter()
-            .map(|t| self.view(frame, t, &meshes, shadows.as_ref()))
+        tracks
+            .par_iter()
+            .map(|&t| self.view(frame, t, &meshes, shadows.as_ref()))
             .collect()
     }
 }
