@@ -1,0 +1,194 @@
+//! Gaussians as an INRIA-layout binary `.ply` (x, y, z, nx, ny, nz, f_dc_0..2, f_rest_0..44,
+//! opacity, scale_0..2, rot_0..3; little-endian `f32`), the file the INRIA viewers, SuperSplat,
+//! gsplat and Brush read. `f_rest` is channel-major (`f_rest_{c·15 + k}` is coefficient `k + 1`
+//! of channel `c`), scales are logs, opacity a logit, rotations (w, x, y, z). World space.
+
+use crate::gaussians::{GaussianSet, SH_REST};
+use burn::tensor::{Device, Tensor, TensorData};
+use std::io::{BufRead, Read, Write};
+use std::path::Path;
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlyError {
+    #[error("{file}: {problem}")]
+    Format { file: String, problem: String },
+    #[error("{file}: {source}")]
+    Io {
+        file: String,
+        source: std::io::Error,
+    },
+}
+
+fn property_names() -> Vec<String> {
+    let mut names: Vec<String> = ["x", "y", "z", "nx", "ny", "nz"].map(String::from).to_vec();
+    names.extend((0..3).map(|c| format!("f_dc_{c}")));
+    names.extend((0..3 * SH_REST).map(|k| format!("f_rest_{k}")));
+    names.push("opacity".into());
+    names.extend((0..3).map(|k| format!("scale_{k}")));
+    names.extend((0..4).map(|k| format!("rot_{k}")));
+    names
+}
+
+fn floats<const D: usize>(t: &Tensor<D>) -> Vec<f32> {
+    t.clone()
+        .into_data()
+        .convert::<f32>()
+        .try_into_vec::<f32>()
+        .expect("f32")
+}
+
+/// Writes `set` to `path` atomically (a temporary sibling renamed into place).
+pub fn write_ply(path: &Path, set: &GaussianSet) -> Result<(), PlyError> {
+    let n = set.len();
+    let (means, dc, rest) = (floats(&set.means), floats(&set.sh_dc), floats(&set.sh_rest));
+    let (opacity, scales, quats) = (
+        floats(&set.opacity_logits),
+        floats(&set.log_scales),
+        floats(&set.quats),
+    );
+    let names = property_names();
+    let mut bytes = Vec::with_capacity(n * names.len() * 4 + 2048);
+    write!(
+        bytes,
+        "ply\nformat binary_little_endian 1.0\nelement vertex {n}\n"
+    )
+    .expect("in memory");
+    for name in &names {
+        writeln!(bytes, "property float {name}").expect("in memory");
+    }
+    bytes.extend_from_slice(b"end_header\n");
+    for i in 0..n {
+        let mut row = Vec::with_capacity(names.len());
+        row.extend_from_slice(&means[3 * i..3 * i + 3]);
+        row.extend_from_slice(&[0.0; 3]);
+        row.extend_from_slice(&dc[3 * i..3 * i + 3]);
+        for c in 0..3 {
+            for k in 0..SH_REST {
+                row.push(rest[(i * SH_REST + k) * 3 + c]);
+            }
+        }
+        row.push(opacity[i]);
+        row.extend_from_slice(&scales[3 * i..3 * i + 3]);
+        row.extend_from_slice(&quats[4 * i..4 * i + 4]);
+        for v in row {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let io = |source| PlyError::Io {
+        file: path.display().to_string(),
+        source,
+    };
+    let tmp = path.with_extension("ply.partial");
+    std::fs::write(&tmp, &bytes).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
+}
+
+/// Reads an INRIA-layout `.ply` (any property order; missing `f_rest_*` read as zero, as in
+/// degree-0 exports).
+pub fn read_ply(path: &Path, device: &Device) -> Result<GaussianSet, PlyError> {
+    let file = path.display().to_string();
+    let format = |problem: String| PlyError::Format {
+        file: file.clone(),
+        problem,
+    };
+    let mut reader =
+        std::io::BufReader::new(std::fs::File::open(path).map_err(|source| PlyError::Io {
+            file: file.clone(),
+            source,
+        })?);
+    let mut properties = Vec::new();
+    let mut count = None;
+    let mut line = String::new();
+    let mut first = true;
+    loop {
+        line.clear();
+        let read = reader.read_line(&mut line).map_err(|source| PlyError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        if read == 0 {
+            return Err(format("header ends before `end_header`".into()));
+        }
+        let words: Vec<&str> = line.split_whitespace().collect();
+        if first {
+            if words != ["ply"] {
+                return Err(format("not a PLY file (first line is not `ply`)".into()));
+            }
+            first = false;
+            continue;
+        }
+        match words.as_slice() {
+            ["format", "binary_little_endian", _] => {}
+            ["format", other, _] => {
+                return Err(format(format!(
+                    "format `{other}`: only binary_little_endian is read"
+                )));
+            }
+            ["element", "vertex", n] => {
+                count = Some(
+                    n.parse::<usize>()
+                        .map_err(|_| format(format!("vertex count `{n}`")))?,
+                );
+            }
+            ["element", other, _] => return Err(format(format!("unexpected element `{other}`"))),
+            ["property", "float", name] => properties.push(name.to_string()),
+            ["property", ty, name] => {
+                return Err(format(format!(
+                    "property `{name}` is `{ty}`; Gaussians are `float`"
+                )));
+            }
+            ["end_header"] => break,
+            _ => {}
+        }
+    }
+    let n = count.ok_or_else(|| format("no `element vertex` line".into()))?;
+    let column = |name: &str| properties.iter().position(|p| p == name);
+    let required =
+        |name: &str| column(name).ok_or_else(|| format(format!("property `{name}` missing")));
+    let stride = properties.len();
+    let mut raw = vec![0u8; n * stride * 4];
+    reader.read_exact(&mut raw).map_err(|_| {
+        format(format!(
+            "truncated: {n} vertices × {stride} floats expected after the header"
+        ))
+    })?;
+    let value = |i: usize, c: usize| {
+        let at = (i * stride + c) * 4;
+        f32::from_le_bytes(raw[at..at + 4].try_into().expect("4 bytes"))
+    };
+    let gather = |names: &[String]| -> Result<Vec<f32>, PlyError> {
+        let cols = names
+            .iter()
+            .map(|nm| required(nm))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((0..n)
+            .flat_map(|i| cols.iter().map(move |&c| (i, c)))
+            .map(|(i, c)| value(i, c))
+            .collect())
+    };
+    let names = |prefix: &str, k: usize| (0..k).map(|j| format!("{prefix}{j}")).collect::<Vec<_>>();
+    let means = gather(&["x", "y", "z"].map(String::from))?;
+    let dc = gather(&names("f_dc_", 3))?;
+    let opacity = gather(&["opacity".to_string()])?;
+    let scales = gather(&names("scale_", 3))?;
+    let quats = gather(&names("rot_", 4))?;
+    let mut rest = vec![0.0f32; n * SH_REST * 3];
+    for c in 0..3 {
+        for k in 0..SH_REST {
+            if let Some(col) = column(&format!("f_rest_{}", c * SH_REST + k)) {
+                for i in 0..n {
+                    rest[(i * SH_REST + k) * 3 + c] = value(i, col);
+                }
+            }
+        }
+    }
+    let t2 = |v: Vec<f32>, k: usize| Tensor::<2>::from_data(TensorData::new(v, [n, k]), device);
+    Ok(GaussianSet {
+        means: t2(means, 3),
+        quats: t2(quats, 4),
+        log_scales: t2(scales, 3),
+        opacity_logits: Tensor::<1>::from_data(TensorData::new(opacity, [n]), device),
+        sh_dc: Tensor::from_data(TensorData::new(dc, [n, 1, 3]), device),
+        sh_rest: Tensor::from_data(TensorData::new(rest, [n, SH_REST, 3]), device),
+    })
+}
