@@ -7,7 +7,8 @@
 //! ```
 //!
 //! So far: initialisation from back-projected depth of the training views (an RGB-D stand-in
-//! for SfM points), Adam with the 3DGS per-group learning rates and exponential position decay,
+//! for SfM points), Adam with the 3DGS per-group learning rates and exponential position decay
+//! ([`splatzoo_train::optimizer`]),
 //! the L1 + D-SSIM loss, SH degree raised every 1000 steps, held-out PSNR/SSIM, an INRIA `.ply`
 //! and `metrics.json` in `runs/3dgs/<name>/`. Densification, checkpoints and configs come next.
 
@@ -16,9 +17,9 @@ use clap::Parser;
 use splatzoo_datasets::image_io::linear_to_srgb;
 use splatzoo_datasets::synth::{Preset, SceneConfig};
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, rasterize};
-use splatzoo_train::adam::{AdamConfig, AdamState};
 use splatzoo_train::gaussians::GaussianSet;
 use splatzoo_train::loss::{photometric, psnr, scalar, ssim};
+use splatzoo_train::optimizer::{GaussianOptimizer, LearningRates};
 use splatzoo_train::ply::write_ply;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -121,15 +122,7 @@ fn main() -> ExitCode {
         start.elapsed().as_secs_f64()
     );
     let extent = 3.5f64;
-    let config = AdamConfig::default();
-    let mut states = (
-        AdamState::new(&set.means),
-        AdamState::new(&set.quats),
-        AdamState::new(&set.log_scales),
-        AdamState::new(&set.opacity_logits),
-        AdamState::new(&set.sh_dc),
-        AdamState::new(&set.sh_rest),
-    );
+    let mut optimizer = GaussianOptimizer::new(&set, LearningRates::default(), extent);
     let background = Tensor::<1>::from_floats(background_srgb.as_slice(), &device);
     let train_start = Instant::now();
     let mut order: Vec<usize> = Vec::new();
@@ -159,45 +152,11 @@ fn main() -> ExitCode {
         };
         let loss = photometric(render.color, view.image.clone().autodiff(), 0.2);
         let grads = loss.backward();
-        let progress = it as f64 / args.iterations.max(1) as f64;
-        let means_lr = 1.6e-4 * extent * (0.01f64).powf(progress);
-        let g = |t: Option<Tensor<2>>| t.expect("leaf gradient");
-        set.means = states.0.step(
-            set.means.clone(),
-            g(leaves.means.grad(&grads)),
-            means_lr,
-            &config,
-        );
-        set.quats = states.1.step(
-            set.quats.clone(),
-            g(leaves.quats.grad(&grads)),
-            1e-3,
-            &config,
-        );
-        set.log_scales = states.2.step(
-            set.log_scales.clone(),
-            g(leaves.log_scales.grad(&grads)),
-            5e-3,
-            &config,
-        );
-        set.opacity_logits = states.3.step(
-            set.opacity_logits.clone(),
-            leaves.opacity_logits.grad(&grads).expect("leaf gradient"),
-            0.05,
-            &config,
-        );
-        let g3 = |t: Option<Tensor<3>>| t.expect("leaf gradient");
-        set.sh_dc = states.4.step(
-            set.sh_dc.clone(),
-            g3(leaves.sh_dc.grad(&grads)),
-            2.5e-3,
-            &config,
-        );
-        set.sh_rest = states.5.step(
-            set.sh_rest.clone(),
-            g3(leaves.sh_rest.grad(&grads)),
-            1.25e-4,
-            &config,
+        optimizer.step(
+            &mut set,
+            &leaves,
+            &grads,
+            it as f64 / args.iterations as f64,
         );
         if (it + 1) % 200 == 0 || it + 1 == args.iterations {
             println!(
