@@ -1,6 +1,6 @@
 //! A trainable set of 3D Gaussians in the rasterizer's parameterisation (means, w-first
 //! quaternions, log-scales, opacity logits, degree-3 SH as DC plus 15 rest coefficients), held
-//! as plain tensors between steps and turned into autodiff leaves for each step.
+//! as plain tensors between steps and copied into autodiff leaves (the same type) for each step.
 
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_rasterizer::Splats;
@@ -23,17 +23,6 @@ pub struct GaussianSet {
     /// `[N, 1, 3]`
     pub sh_dc: Tensor<3>,
     /// `[N, 15, 3]`
-    pub sh_rest: Tensor<3>,
-}
-
-/// The same parameters as autodiff leaves for one step.
-#[derive(Debug, Clone)]
-pub struct Leaves {
-    pub means: Tensor<2>,
-    pub quats: Tensor<2>,
-    pub log_scales: Tensor<2>,
-    pub opacity_logits: Tensor<1>,
-    pub sh_dc: Tensor<3>,
     pub sh_rest: Tensor<3>,
 }
 
@@ -83,11 +72,11 @@ impl GaussianSet {
         self.len() == 0
     }
 
-    /// Autodiff leaves that retain their gradients.
-    pub fn leaves(&self) -> Leaves {
+    /// The same parameters as autodiff leaves that retain their gradients, for one step.
+    pub fn leaves(&self) -> GaussianSet {
         let leaf2 = |t: &Tensor<2>| t.clone().autodiff().require_grad();
         let leaf3 = |t: &Tensor<3>| t.clone().autodiff().require_grad();
-        Leaves {
+        GaussianSet {
             means: leaf2(&self.means),
             quats: leaf2(&self.quats),
             log_scales: leaf2(&self.log_scales),
@@ -96,9 +85,7 @@ impl GaussianSet {
             sh_rest: leaf3(&self.sh_rest),
         }
     }
-}
 
-impl Leaves {
     /// The splats the rasterizer takes.
     pub fn splats(&self) -> Splats {
         Splats {

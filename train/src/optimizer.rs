@@ -3,7 +3,7 @@
 //! and scaled by the scene extent.
 
 use crate::adam::{AdamConfig, AdamState};
-use crate::gaussians::{GaussianSet, Leaves};
+use crate::gaussians::GaussianSet;
 use burn::tensor::Gradients;
 
 /// Learning rate per parameter group.
@@ -74,7 +74,7 @@ impl GaussianOptimizer {
     pub fn step(
         &mut self,
         set: &mut GaussianSet,
-        leaves: &Leaves,
+        leaves: &GaussianSet,
         grads: &Gradients,
         progress: f64,
     ) {

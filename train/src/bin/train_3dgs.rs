@@ -170,10 +170,9 @@ fn main() -> ExitCode {
     let (mut psnr_sum, mut ssim_sum) = (0.0, 0.0);
     for view in &test {
         let settings = RasterSettings::new(view.camera, ColorMode::Sh { degree: 3 });
-        let leaves = set.leaves();
-        let splats = leaves.splats();
-        let render = rasterize(&splats, background.clone(), &settings).expect("validated above");
-        let image = render.color.inner().clamp(0.0, 1.0);
+        let render =
+            rasterize(&set.splats(), background.clone(), &settings).expect("validated above");
+        let image = render.color.clamp(0.0, 1.0);
         psnr_sum += psnr(image.clone(), view.image.clone());
         ssim_sum += scalar(ssim(image, view.image.clone()));
     }
