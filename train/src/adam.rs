@@ -2,7 +2,8 @@
 //! buffers that follow the parameters when densification adds or removes rows (3DGS and gsplat
 //! keep one Adam state per parameter tensor the same way).
 
-use burn::tensor::{Bool, Tensor};
+use crate::checkpoint::{Checkpoint, CheckpointError};
+use burn::tensor::{Int, Tensor};
 
 /// Hyper-parameters shared by every group.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,9 +62,8 @@ impl<const D: usize> AdamState<D> {
         param - update * lr
     }
 
-    /// Keeps the rows where `keep` `[N]` is true.
-    pub fn retain(&mut self, keep: &Tensor<1, Bool>) {
-        let index = keep.clone().argwhere().squeeze_dim(1);
+    /// Keeps the rows `index` `[M]` (in that order).
+    pub fn select(&mut self, index: Tensor<1, Int>) {
         self.first = self.first.clone().select(0, index.clone());
         self.second = self.second.clone().select(0, index);
     }
@@ -75,5 +75,43 @@ impl<const D: usize> AdamState<D> {
         let zeros = Tensor::<D>::zeros(shape, &self.first.device());
         self.first = Tensor::cat(vec![self.first.clone(), zeros.clone()], 0);
         self.second = Tensor::cat(vec![self.second.clone(), zeros], 0);
+    }
+
+    /// Multiplies row `i` of both moments by `factor[i]` (`[N]`; 0 restarts a row).
+    pub fn scale_rows(&mut self, factor: Tensor<1>) {
+        let mut shape = [1; D];
+        shape[0] = factor.dims()[0];
+        let factor = factor.reshape(shape);
+        self.first = self.first.clone() * factor.clone();
+        self.second = self.second.clone() * factor;
+    }
+
+    /// Restarts every row.
+    pub fn reset(&mut self) {
+        self.first = self.first.zeros_like();
+        self.second = self.second.zeros_like();
+    }
+
+    /// Stores the moments as `{prefix}.exp_avg` / `{prefix}.exp_avg_sq` (PyTorch's names) and
+    /// the step count as metadata.
+    pub fn save(&self, checkpoint: &mut Checkpoint, prefix: &str) {
+        checkpoint.put(&format!("{prefix}.exp_avg"), &self.first);
+        checkpoint.put(&format!("{prefix}.exp_avg_sq"), &self.second);
+        checkpoint.put_meta(&format!("{prefix}.step"), self.steps);
+    }
+
+    /// The state saved under `prefix` for a parameter shaped like `like`.
+    pub fn load(
+        checkpoint: &Checkpoint,
+        prefix: &str,
+        like: &Tensor<D>,
+    ) -> Result<Self, CheckpointError> {
+        let shape = like.dims().map(Some);
+        let device = like.device();
+        Ok(Self {
+            first: checkpoint.tensor(&format!("{prefix}.exp_avg"), shape, &device)?,
+            second: checkpoint.tensor(&format!("{prefix}.exp_avg_sq"), shape, &device)?,
+            steps: checkpoint.meta_parsed(&format!("{prefix}.step"))?,
+        })
     }
 }

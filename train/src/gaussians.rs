@@ -2,7 +2,8 @@
 //! quaternions, log-scales, opacity logits, degree-3 SH as DC plus 15 rest coefficients), held
 //! as plain tensors between steps and copied into autodiff leaves (the same type) for each step.
 
-use burn::tensor::{Device, Tensor, TensorData};
+use crate::checkpoint::{Checkpoint, CheckpointError};
+use burn::tensor::{Device, Int, Tensor, TensorData};
 use splatzoo_rasterizer::Splats;
 
 /// The SH DC basis constant: colour = C0 · dc + 0.5.
@@ -95,5 +96,181 @@ impl GaussianSet {
             opacity_logits: self.opacity_logits.clone(),
             colors: Tensor::cat(vec![self.sh_dc.clone(), self.sh_rest.clone()], 1),
         }
+    }
+
+    /// The rows `index` (in that order).
+    pub fn select(&self, index: &[usize]) -> GaussianSet {
+        let device = self.means.device();
+        let index = Tensor::<1, Int>::from_data(
+            TensorData::new(index.iter().map(|&i| i as i64).collect(), [index.len()]),
+            &device,
+        );
+        GaussianSet {
+            means: self.means.clone().select(0, index.clone()),
+            quats: self.quats.clone().select(0, index.clone()),
+            log_scales: self.log_scales.clone().select(0, index.clone()),
+            opacity_logits: self.opacity_logits.clone().select(0, index.clone()),
+            sh_dc: self.sh_dc.clone().select(0, index.clone()),
+            sh_rest: self.sh_rest.clone().select(0, index),
+        }
+    }
+
+    /// `self` followed by `more`.
+    pub fn append(&self, more: &GaussianSet) -> GaussianSet {
+        let cat2 = |a: &Tensor<2>, b: &Tensor<2>| Tensor::cat(vec![a.clone(), b.clone()], 0);
+        let cat3 = |a: &Tensor<3>, b: &Tensor<3>| Tensor::cat(vec![a.clone(), b.clone()], 0);
+        GaussianSet {
+            means: cat2(&self.means, &more.means),
+            quats: cat2(&self.quats, &more.quats),
+            log_scales: cat2(&self.log_scales, &more.log_scales),
+            opacity_logits: Tensor::cat(
+                vec![self.opacity_logits.clone(), more.opacity_logits.clone()],
+                0,
+            ),
+            sh_dc: cat3(&self.sh_dc, &more.sh_dc),
+            sh_rest: cat3(&self.sh_rest, &more.sh_rest),
+        }
+    }
+
+    /// The parameters on the host, row-major (for density control and exports).
+    pub fn to_rows(&self) -> GaussianRows {
+        use crate::host_f32 as host;
+        GaussianRows {
+            means: host(&self.means),
+            quats: host(&self.quats),
+            log_scales: host(&self.log_scales),
+            opacity_logits: host(&self.opacity_logits),
+            sh_dc: host(&self.sh_dc),
+            sh_rest: host(&self.sh_rest),
+        }
+    }
+
+    pub fn from_rows(rows: &GaussianRows, device: &Device) -> GaussianSet {
+        let n = rows.len();
+        let t2 = |v: &[f32], w: usize| {
+            Tensor::<2>::from_data(TensorData::new(v.to_vec(), [n, w]), device)
+        };
+        let t3 = |v: &[f32], k: usize| {
+            Tensor::<3>::from_data(TensorData::new(v.to_vec(), [n, k, 3]), device)
+        };
+        GaussianSet {
+            means: t2(&rows.means, 3),
+            quats: t2(&rows.quats, 4),
+            log_scales: t2(&rows.log_scales, 3),
+            opacity_logits: Tensor::from_data(
+                TensorData::new(rows.opacity_logits.clone(), [n]),
+                device,
+            ),
+            sh_dc: t3(&rows.sh_dc, 1),
+            sh_rest: t3(&rows.sh_rest, SH_REST),
+        }
+    }
+
+    /// Stores the parameters under gsplat's names (`{prefix}.means`, `.quats`, `.scales` (log),
+    /// `.opacities` (logits), `.sh0`, `.shN`).
+    pub fn save(&self, checkpoint: &mut Checkpoint, prefix: &str) {
+        checkpoint.put(&format!("{prefix}.means"), &self.means);
+        checkpoint.put(&format!("{prefix}.quats"), &self.quats);
+        checkpoint.put(&format!("{prefix}.scales"), &self.log_scales);
+        checkpoint.put(&format!("{prefix}.opacities"), &self.opacity_logits);
+        checkpoint.put(&format!("{prefix}.sh0"), &self.sh_dc);
+        checkpoint.put(&format!("{prefix}.shN"), &self.sh_rest);
+    }
+
+    /// The set saved under `prefix`; every tensor must agree on the number of Gaussians.
+    pub fn load(
+        checkpoint: &Checkpoint,
+        prefix: &str,
+        device: &Device,
+    ) -> Result<GaussianSet, CheckpointError> {
+        let name = |s: &str| format!("{prefix}.{s}");
+        let means: Tensor<2> = checkpoint.tensor(&name("means"), [None, Some(3)], device)?;
+        let n = Some(means.dims()[0]);
+        Ok(GaussianSet {
+            means,
+            quats: checkpoint.tensor(&name("quats"), [n, Some(4)], device)?,
+            log_scales: checkpoint.tensor(&name("scales"), [n, Some(3)], device)?,
+            opacity_logits: checkpoint.tensor(&name("opacities"), [n], device)?,
+            sh_dc: checkpoint.tensor(&name("sh0"), [n, Some(1), Some(3)], device)?,
+            sh_rest: checkpoint.tensor(&name("shN"), [n, Some(SH_REST), Some(3)], device)?,
+        })
+    }
+}
+
+/// A [`GaussianSet`] on the host, row-major: widths 3, 4, 3, 1, 3 and 45 floats per Gaussian.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GaussianRows {
+    pub means: Vec<f32>,
+    pub quats: Vec<f32>,
+    pub log_scales: Vec<f32>,
+    pub opacity_logits: Vec<f32>,
+    pub sh_dc: Vec<f32>,
+    pub sh_rest: Vec<f32>,
+}
+
+impl GaussianRows {
+    pub fn len(&self) -> usize {
+        self.opacity_logits.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.opacity_logits.is_empty()
+    }
+
+    /// Appends row `i` of `from`.
+    pub fn push_from(&mut self, from: &GaussianRows, i: usize) {
+        self.means.extend_from_slice(&from.means[3 * i..3 * i + 3]);
+        self.quats.extend_from_slice(&from.quats[4 * i..4 * i + 4]);
+        self.log_scales
+            .extend_from_slice(&from.log_scales[3 * i..3 * i + 3]);
+        self.opacity_logits.push(from.opacity_logits[i]);
+        self.sh_dc.extend_from_slice(&from.sh_dc[3 * i..3 * i + 3]);
+        let r = 3 * SH_REST;
+        self.sh_rest
+            .extend_from_slice(&from.sh_rest[r * i..r * i + r]);
+    }
+
+    pub fn mean(&self, i: usize) -> [f32; 3] {
+        [
+            self.means[3 * i],
+            self.means[3 * i + 1],
+            self.means[3 * i + 2],
+        ]
+    }
+
+    pub fn scale(&self, i: usize) -> [f32; 3] {
+        std::array::from_fn(|k| self.log_scales[3 * i + k].exp())
+    }
+
+    pub fn opacity(&self, i: usize) -> f32 {
+        1.0 / (1.0 + (-self.opacity_logits[i]).exp())
+    }
+
+    /// The rotation matrix of row `i` (normalised quaternion; zero means identity).
+    pub fn rotation(&self, i: usize) -> [[f32; 3]; 3] {
+        let q = &self.quats[4 * i..4 * i + 4];
+        let norm = q.iter().map(|v| v * v).sum::<f32>().sqrt();
+        let [w, x, y, z] = if norm > 0.0 {
+            [q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm]
+        } else {
+            [1.0, 0.0, 0.0, 0.0]
+        };
+        [
+            [
+                1.0 - 2.0 * (y * y + z * z),
+                2.0 * (x * y - w * z),
+                2.0 * (x * z + w * y),
+            ],
+            [
+                2.0 * (x * y + w * z),
+                1.0 - 2.0 * (x * x + z * z),
+                2.0 * (y * z - w * x),
+            ],
+            [
+                2.0 * (x * z - w * y),
+                2.0 * (y * z + w * x),
+                1.0 - 2.0 * (x * x + y * y),
+            ],
+        ]
     }
 }

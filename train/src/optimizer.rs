@@ -3,11 +3,14 @@
 //! and scaled by the scene extent.
 
 use crate::adam::{AdamConfig, AdamState};
+use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::gaussians::GaussianSet;
-use burn::tensor::Gradients;
+use burn::tensor::{Gradients, Int, Tensor, TensorData};
+use serde::{Deserialize, Serialize};
 
 /// Learning rate per parameter group.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct LearningRates {
     /// Positions at the start and the end of training, per metre of scene extent.
     pub means_start: f64,
@@ -117,5 +120,84 @@ impl GaussianOptimizer {
             r.sh_rest,
             &c,
         );
+    }
+
+    /// Keeps the moments of rows `index` (in that order), as [`GaussianSet::select`] does.
+    pub fn select(&mut self, index: &[usize]) {
+        let device = self.means.first.device();
+        let index = Tensor::<1, Int>::from_data(
+            TensorData::new(index.iter().map(|&i| i as i64).collect(), [index.len()]),
+            &device,
+        );
+        self.means.select(index.clone());
+        self.quats.select(index.clone());
+        self.log_scales.select(index.clone());
+        self.opacity.select(index.clone());
+        self.sh_dc.select(index.clone());
+        self.sh_rest.select(index);
+    }
+
+    /// Appends `count` rows of fresh state, as [`GaussianSet::append`] does.
+    pub fn grow(&mut self, count: usize) {
+        self.means.grow(count);
+        self.quats.grow(count);
+        self.log_scales.grow(count);
+        self.opacity.grow(count);
+        self.sh_dc.grow(count);
+        self.sh_rest.grow(count);
+    }
+
+    /// Restarts the rows where `restart[i]` is true.
+    pub fn restart_rows(&mut self, restart: &[bool]) {
+        let factor: Vec<f32> = restart.iter().map(|&r| if r { 0.0 } else { 1.0 }).collect();
+        let factor = Tensor::<1>::from_data(
+            TensorData::new(factor, [restart.len()]),
+            &self.means.first.device(),
+        );
+        self.means.scale_rows(factor.clone());
+        self.quats.scale_rows(factor.clone());
+        self.log_scales.scale_rows(factor.clone());
+        self.opacity.scale_rows(factor.clone());
+        self.sh_dc.scale_rows(factor.clone());
+        self.sh_rest.scale_rows(factor);
+    }
+
+    /// Restarts the opacity group (after an opacity reset, as 3DGS does).
+    pub fn reset_opacity(&mut self) {
+        self.opacity.reset();
+    }
+
+    /// Stores every group's state under `{prefix}.{group}` (the parameter names of
+    /// [`GaussianSet::save`]).
+    pub fn save(&self, checkpoint: &mut Checkpoint, prefix: &str) {
+        let name = |s: &str| format!("{prefix}.{s}");
+        self.means.save(checkpoint, &name("means"));
+        self.quats.save(checkpoint, &name("quats"));
+        self.log_scales.save(checkpoint, &name("scales"));
+        self.opacity.save(checkpoint, &name("opacities"));
+        self.sh_dc.save(checkpoint, &name("sh0"));
+        self.sh_rest.save(checkpoint, &name("shN"));
+    }
+
+    /// The state saved by [`Self::save`] for `set`.
+    pub fn load(
+        checkpoint: &Checkpoint,
+        prefix: &str,
+        set: &GaussianSet,
+        rates: LearningRates,
+        extent: f64,
+    ) -> Result<Self, CheckpointError> {
+        let name = |s: &str| format!("{prefix}.{s}");
+        Ok(Self {
+            config: AdamConfig::default(),
+            rates,
+            extent,
+            means: AdamState::load(checkpoint, &name("means"), &set.means)?,
+            quats: AdamState::load(checkpoint, &name("quats"), &set.quats)?,
+            log_scales: AdamState::load(checkpoint, &name("scales"), &set.log_scales)?,
+            opacity: AdamState::load(checkpoint, &name("opacities"), &set.opacity_logits)?,
+            sh_dc: AdamState::load(checkpoint, &name("sh0"), &set.sh_dc)?,
+            sh_rest: AdamState::load(checkpoint, &name("shN"), &set.sh_rest)?,
+        })
     }
 }

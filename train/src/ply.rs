@@ -29,13 +29,7 @@ fn property_names() -> Vec<String> {
     names
 }
 
-fn floats<const D: usize>(t: &Tensor<D>) -> Vec<f32> {
-    t.clone()
-        .into_data()
-        .convert::<f32>()
-        .try_into_vec::<f32>()
-        .expect("f32")
-}
+use crate::host_f32 as floats;
 
 /// Writes `set` to `path` atomically (a temporary sibling renamed into place).
 pub fn write_ply(path: &Path, set: &GaussianSet) -> Result<(), PlyError> {

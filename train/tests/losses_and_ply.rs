@@ -1,22 +1,12 @@
 //! Losses against f64 references and finite differences, PSNR from its definition, Adam
 //! against the scalar update rule, and the INRIA `.ply` round trip and its errors.
 
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::{Device, Int, Tensor, TensorData};
+use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_train::adam::{AdamConfig, AdamState};
 use splatzoo_train::gaussians::GaussianSet;
 use splatzoo_train::loss::{photometric, psnr, scalar, ssim, window};
 use splatzoo_train::ply::{read_ply, write_ply};
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 fn image(rng: &mut Rng, h: usize, w: usize) -> Vec<f64> {
     (0..h * w * 3).map(|_| rng.next()).collect()
@@ -174,7 +164,7 @@ fn adam_matches_the_scalar_update_rule() {
     }
     // Pruning keeps the surviving rows' moments; growing appends zeros.
     let first_before: Vec<f32> = state.first.clone().into_data().try_into_vec().unwrap();
-    state.retain(&Tensor::<1>::from_floats([1.0, 0.0, 1.0], &device).greater_elem(0.5));
+    state.select(Tensor::<1, Int>::from_ints([0, 2], &device));
     state.grow(2);
     let first: Vec<f32> = state.first.into_data().try_into_vec().unwrap();
     assert_eq!(first, vec![first_before[0], first_before[2], 0.0, 0.0]);
@@ -237,32 +227,4 @@ fn ply_round_trips_and_bad_files_are_refused() {
     assert!(e.contains("opacity"), "{e}");
     std::fs::write(&path, b"solid\n").unwrap();
     assert!(read_ply(&path, &device).is_err());
-}
-
-#[test]
-fn train_3dgs_runs_end_to_end_and_writes_its_outputs() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_train-3dgs"))
-        .args(["--iterations", "30", "--size", "32", "--name", "smoke"])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    let out = dir.path().join("runs/3dgs/smoke");
-    let metrics: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
-    let psnr = metrics["test_psnr"].as_f64().unwrap();
-    assert!(psnr.is_finite() && psnr > 10.0, "held-out PSNR {psnr}");
-    let set = read_ply(&out.join("point_cloud.ply"), &Device::flex()).unwrap();
-    assert_eq!(set.len() as u64, metrics["gaussians"].as_u64().unwrap());
-    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_train-3dgs"))
-        .args(["--iterations", "0"])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(!bad.status.success());
 }

@@ -17,7 +17,7 @@ pub mod motion;
 pub mod preset;
 pub mod prior;
 pub mod rig;
-mod rng;
+pub mod rng;
 pub mod scene;
 
 pub use preset::SceneConfig;

@@ -1,201 +1,298 @@
-//! `train-3dgs`: static-scene 3D Gaussian splatting on the synthetic static preset (a yard seen by
-//! 48 cameras; every 8th held out), the scene-prior stage other methods reuse.
+//! `train-3dgs`: static-scene 3D Gaussian splatting, on the synthetic static preset (a yard
+//! seen by 48 cameras; every 8th held out) or on a nerfstudio `transforms.json` folder. It is the
+//! scene-prior stage other methods reuse.
 //!
 //! ```sh
-//! cargo run --release --bin train-3dgs                 # embedded default
-//! cargo run --release --bin train-3dgs -- --iterations 3000 --size 128
+//! cargo run --release --bin train-3dgs                      # embedded default
+//! cargo run --release --bin train-3dgs -- --data path/to/nerfstudio/folder --backend wgpu
+//! cargo run --release --bin train-3dgs -- --config my.toml --set densify.strategy=mcmc
+//! cargo run --release --bin train-3dgs -- --resume runs/3dgs/default/checkpoint.safetensors
 //! ```
 //!
-//! So far: initialisation from back-projected depth of the training views (an RGB-D stand-in
-//! for SfM points), Adam with the 3DGS per-group learning rates and exponential position decay
-//! ([`splatzoo_train::optimizer`]),
-//! the L1 + D-SSIM loss, SH degree raised every 1000 steps, held-out PSNR/SSIM, an INRIA `.ply`
-//! and `metrics.json` in `runs/3dgs/<name>/`. Densification, checkpoints and configs come next.
+//! Every knob is in the TOML configuration ([`StaticConfig`]); `--print-config` shows the
+//! defaults. Each run writes `runs/3dgs/<name>/`: `config.toml`, `log.txt`, `metrics.json`
+//! (every evaluation), `checkpoint.safetensors`, `point_cloud.ply` (INRIA layout) and
+//! `renders/` (held-out render | ground truth). Ctrl-C writes a checkpoint before exiting.
 
-use burn::tensor::{Device, Tensor, TensorData};
 use clap::Parser;
-use splatzoo_datasets::image_io::linear_to_srgb;
-use splatzoo_datasets::synth::{Preset, SceneConfig};
-use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, rasterize};
-use splatzoo_train::gaussians::GaussianSet;
-use splatzoo_train::loss::{photometric, psnr, scalar, ssim};
-use splatzoo_train::optimizer::{GaussianOptimizer, LearningRates};
+use indicatif::{ProgressBar, ProgressStyle};
+use splatzoo_train::backend::Backend;
+use splatzoo_train::checkpoint::Checkpoint;
+use splatzoo_train::config;
+use splatzoo_train::densify::Strategy;
+use splatzoo_train::images::{side_by_side, srgb_image, write_png};
+use splatzoo_train::lpips::Lpips;
 use splatzoo_train::ply::write_ply;
+use splatzoo_train::run_dir::RunDir;
+use splatzoo_train::static_scene::{Evaluation, StaticConfig, StaticTrainer};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 #[derive(Parser, Debug)]
-#[command(about = "Train static 3D Gaussian splatting on the synthetic static scene")]
+#[command(about = "Static-scene 3D Gaussian splatting (synthetic default or a nerfstudio folder)")]
 struct Args {
-    #[arg(long, default_value_t = 2000)]
-    iterations: usize,
-    /// Image side in pixels.
-    #[arg(long, default_value_t = 96)]
-    size: u32,
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Back-project every N-th pixel of each training view's depth to initialise.
-    #[arg(long, default_value_t = 4)]
-    init_stride: usize,
-    /// Run name under runs/3dgs/.
+    /// TOML configuration (any subset of the keys `--print-config` shows).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Override one key, e.g. `--set densify.grad_threshold=0.0004` (repeatable; applied last).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    overrides: Vec<String>,
+    /// Shorthand for `--set iterations=N`.
+    #[arg(long)]
+    iterations: Option<usize>,
+    /// Shorthand for `--set backend=…`.
+    #[arg(long, value_enum)]
+    backend: Option<Backend>,
+    /// A nerfstudio folder (or its transforms.json) instead of the synthetic scene.
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Shorthand for `--set data.size=N` (synthetic image side).
+    #[arg(long)]
+    size: Option<u32>,
+    /// Shorthand for `--set densify.strategy=…`.
+    #[arg(long, value_enum)]
+    densify: Option<Strategy>,
+    /// Continue from a checkpoint (its configuration, then `--config`/`--set` on top).
+    #[arg(long)]
+    resume: Option<PathBuf>,
+    /// Run name: writes to `<runs>/3dgs/<name>/`.
     #[arg(long, default_value = "default")]
     name: String,
-}
-
-struct View {
-    camera: Camera,
-    /// `[H, W, 3]` sRGB in [0, 1].
-    image: Tensor<3>,
+    #[arg(long, default_value = "runs")]
+    runs: PathBuf,
+    /// Print the effective configuration as TOML and exit.
+    #[arg(long)]
+    print_config: bool,
+    /// Stop (with a checkpoint, as Ctrl-C does) after this many steps of this invocation.
+    #[arg(long, hide = true)]
+    stop_after: Option<usize>,
 }
 
 fn main() -> ExitCode {
-    let args = Args::parse();
-    if args.iterations == 0 || args.size < 16 || args.init_stride == 0 {
-        eprintln!("error: --iterations ≥ 1, --size ≥ 16 and --init-stride ≥ 1");
-        return ExitCode::FAILURE;
+    match run(Args::parse()) {
+        Ok(code) => code,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::FAILURE
+        }
     }
-    let device = Device::flex();
+}
+
+fn overrides(args: &Args) -> Vec<String> {
+    let mut sets = Vec::new();
+    if let Some(n) = args.iterations {
+        sets.push(format!("iterations={n}"));
+    }
+    if let Some(b) = args.backend {
+        sets.push(format!("backend=\"{}\"", b.name()));
+    }
+    if let Some(path) = &args.data {
+        sets.push("data.source=\"nerfstudio\"".into());
+        sets.push(format!(
+            "data.path={}",
+            toml::Value::from(path.display().to_string())
+        ));
+    }
+    if let Some(size) = args.size {
+        sets.push(format!("data.size={size}"));
+    }
+    if let Some(strategy) = args.densify {
+        let name = format!("{strategy:?}").to_lowercase();
+        sets.push(format!("densify.strategy=\"{name}\""));
+    }
+    sets.extend(args.overrides.iter().cloned());
+    sets
+}
+
+fn run(args: Args) -> Result<ExitCode, String> {
+    let resumed = match &args.resume {
+        Some(path) => Some(Checkpoint::read(path).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    let base = match &resumed {
+        Some(c) => StaticTrainer::checkpoint_config(c).map_err(|e| e.to_string())?,
+        None => StaticConfig::default(),
+    };
+    let config: StaticConfig = config::load(&base, args.config.as_deref(), &overrides(&args))
+        .map_err(|e| e.to_string())?;
+    if args.print_config {
+        print!("{}", config::to_toml(&config));
+        return Ok(ExitCode::SUCCESS);
+    }
+    let device = config.backend.device();
     let start = Instant::now();
-    let scene = SceneConfig {
-        width: args.size,
-        height: args.size,
-        ..SceneConfig::new(Preset::Static, args.seed)
+    let lpips = match &config.lpips_weights {
+        Some(path) => Some(Lpips::load(path, &device).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    let mut trainer = match &resumed {
+        Some(c) => StaticTrainer::resume(config.clone(), c, &device),
+        None => StaticTrainer::new(config.clone(), &device),
     }
-    .build(&device);
-    let rendered = scene.render_frame(0);
-    let background_srgb = scene.environment.background.map(linear_to_srgb);
-    let mut train = Vec::new();
-    let mut test = Vec::new();
-    let (mut positions, mut colours, mut sigmas) = (Vec::new(), Vec::new(), Vec::new());
-    for (k, view) in rendered.iter().enumerate() {
-        let r = &view.render;
-        let (w, h) = (r.width, r.height);
-        let srgb: Vec<f32> = r.color.iter().flat_map(|c| c.map(linear_to_srgb)).collect();
-        let image = Tensor::<3>::from_data(TensorData::new(srgb.clone(), [h, w, 3]), &device);
-        let held_out = k % 8 == 0;
-        if !held_out {
-            let cam = view.camera;
-            let m = cam.world_to_camera;
-            for y in (0..h).step_by(args.init_stride) {
-                for x in (0..w).step_by(args.init_stride) {
-                    let d = r.depth[y * w + x];
-                    if !d.is_finite() {
-                        continue;
-                    }
-                    let c = [
-                        d * (x as f32 + 0.5 - cam.cx) / cam.fx,
-                        d * (y as f32 + 0.5 - cam.cy) / cam.fy,
-                        d,
-                    ];
-                    // World = Rᵀ (c − t).
-                    let p: [f32; 3] =
-                        std::array::from_fn(|j| (0..3).map(|i| m[i][j] * (c[i] - m[i][3])).sum());
-                    positions.push(p);
-                    colours.push([
-                        srgb[3 * (y * w + x)],
-                        srgb[3 * (y * w + x) + 1],
-                        srgb[3 * (y * w + x) + 2],
-                    ]);
-                    sigmas.push(0.5 * args.init_stride as f32 * d / cam.fx);
-                }
-            }
+    .map_err(|e| e.to_string())?;
+    let mut run = RunDir::open(&args.runs, "3dgs", &args.name).map_err(|e| e.to_string())?;
+    run.write_text("config.toml", &config::to_toml(&config))
+        .map_err(|e| e.to_string())?;
+    let mut evaluations: Vec<Evaluation> = std::fs::read_to_string(run.file("metrics.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| serde_json::from_value(v["evaluations"].clone()).ok())
+        .unwrap_or_default();
+    evaluations.retain(|e| e.step <= trainer.step);
+    let views = &trainer.views;
+    let say = |run: &mut RunDir, bar: Option<&ProgressBar>, line: String| {
+        run.log(&line);
+        match bar {
+            Some(bar) if !bar.is_hidden() => bar.println(&line),
+            _ => println!("{line}"),
         }
-        let v = View {
-            camera: view.camera,
-            image,
-        };
-        if held_out {
-            test.push(v)
-        } else {
-            train.push(v)
-        }
-    }
-    let mut set = GaussianSet::from_points(&positions, &colours, &sigmas, &device);
-    println!(
-        "static scene seed {}: {} train / {} test views at {}², {} Gaussians; ready in {:.1} s",
-        args.seed,
-        train.len(),
-        test.len(),
-        args.size,
-        set.len(),
-        start.elapsed().as_secs_f64()
+    };
+    say(
+        &mut run,
+        None,
+        format!(
+            "{}: {} train / {} held-out views, {} Gaussians, extent {:.2} m, backend {}, {}; ready in {:.1} s",
+            if resumed.is_some() {
+                "resumed"
+            } else {
+                "started"
+            },
+            views.train.len(),
+            views.test.len(),
+            trainer.set.len(),
+            views.extent,
+            config.backend.name(),
+            match &resumed {
+                Some(_) => format!("from step {}", trainer.step),
+                None => "from scratch".into(),
+            },
+            start.elapsed().as_secs_f64()
+        ),
     );
-    let extent = 3.5f64;
-    let mut optimizer = GaussianOptimizer::new(&set, LearningRates::default(), extent);
-    let background = Tensor::<1>::from_floats(background_srgb.as_slice(), &device);
-    let train_start = Instant::now();
-    let mut order: Vec<usize> = Vec::new();
-    let mut rng_state = args.seed ^ 0x3D65;
-    for it in 0..args.iterations {
-        if order.is_empty() {
-            order = (0..train.len()).collect();
-            // Fisher–Yates with a SplitMix64 stream.
-            for i in (1..order.len()).rev() {
-                rng_state = rng_state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-                let mut z = rng_state;
-                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-                order.swap(i, ((z ^ (z >> 31)) % (i as u64 + 1)) as usize);
-            }
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let flag = interrupted.clone();
+        ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
+            .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))?;
+    }
+    let bar = ProgressBar::new(config.iterations as u64).with_position(trainer.step as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {per_sec} eta {eta} {msg}")
+            .expect("valid template"),
+    );
+    let checkpoint_path = run.file("checkpoint.safetensors");
+    let write_checkpoint = |trainer: &StaticTrainer| {
+        trainer
+            .checkpoint()
+            .write(&checkpoint_path)
+            .map_err(|e| e.to_string())
+    };
+    let loop_start = Instant::now();
+    let first_step = trainer.step;
+    let mut last_psnr = evaluations.last().map(|e| e.psnr);
+    while trainer.step < config.iterations {
+        let report = trainer.step().map_err(|e| e.to_string())?;
+        let step = trainer.step;
+        bar.set_position(step as u64);
+        if step % 10 == 0 {
+            bar.set_message(format!(
+                "loss {:.4} psnr {} n {}",
+                report.loss,
+                last_psnr.map_or("-".into(), |p| format!("{p:.2}")),
+                trainer.set.len()
+            ));
         }
-        let view = &train[order.pop().expect("refilled")];
-        let degree = (it / 1000).min(3) as u32;
-        let settings = RasterSettings::new(view.camera, ColorMode::Sh { degree });
-        let leaves = set.leaves();
-        let render = match rasterize(&leaves.splats(), background.clone().autodiff(), &settings) {
-            Ok(r) => r,
-            Err(e) => {
-                eprintln!("error: step {it}: {e}");
-                return ExitCode::FAILURE;
-            }
-        };
-        let loss = photometric(render.color, view.image.clone().autodiff(), 0.2);
-        let grads = loss.backward();
-        optimizer.step(
-            &mut set,
-            &leaves,
-            &grads,
-            it as f64 / args.iterations as f64,
-        );
-        if (it + 1) % 200 == 0 || it + 1 == args.iterations {
-            println!(
-                "step {:>5}: loss {:.4}, {:.1} it/s",
-                it + 1,
-                scalar(loss.inner()),
-                (it + 1) as f64 / train_start.elapsed().as_secs_f64()
+        if let Some(d) = report.density {
+            run.log(&format!(
+                "step {step}: density {d:?} → {} Gaussians",
+                trainer.set.len()
+            ));
+        }
+        if step % 200 == 0 {
+            let rate = (step - first_step) as f64 / loop_start.elapsed().as_secs_f64();
+            let line = format!(
+                "step {step:>6}: loss {:.4}, {} Gaussians, {rate:.1} it/s",
+                report.loss,
+                trainer.set.len()
             );
+            say(&mut run, Some(&bar), line);
+        }
+        let last = step == config.iterations;
+        if config.eval_every > 0 && step % config.eval_every == 0 || last {
+            let e = trainer
+                .evaluate(lpips.as_ref())
+                .map_err(|e| e.to_string())?;
+            last_psnr = Some(e.psnr);
+            let lpips_text = e.lpips.map_or(String::new(), |l| format!(", LPIPS {l:.4}"));
+            say(
+                &mut run,
+                Some(&bar),
+                format!(
+                    "step {step:>6}: held-out PSNR {:.2} dB, SSIM {:.4}{lpips_text}",
+                    e.psnr, e.ssim
+                ),
+            );
+            evaluations.push(e);
+            let metrics = serde_json::json!({ "method": "3dgs", "evaluations": evaluations });
+            run.write_json("metrics.json", &metrics)
+                .map_err(|e| e.to_string())?;
+        }
+        let stop = interrupted.load(Ordering::SeqCst)
+            || args.stop_after.is_some_and(|n| step - first_step >= n);
+        if stop && !last {
+            write_checkpoint(&trainer)?;
+            bar.abandon();
+            say(
+                &mut run,
+                None,
+                format!(
+                    "interrupted at step {step}: wrote {}; continue with --resume {}",
+                    checkpoint_path.display(),
+                    checkpoint_path.display()
+                ),
+            );
+            return Ok(ExitCode::from(130));
+        }
+        if config.checkpoint_every > 0 && step % config.checkpoint_every == 0 && !last {
+            write_checkpoint(&trainer)?;
         }
     }
-    let (mut psnr_sum, mut ssim_sum) = (0.0, 0.0);
-    for view in &test {
-        let settings = RasterSettings::new(view.camera, ColorMode::Sh { degree: 3 });
-        let render =
-            rasterize(&set.splats(), background.clone(), &settings).expect("validated above");
-        let image = render.color.clamp(0.0, 1.0);
-        psnr_sum += psnr(image.clone(), view.image.clone());
-        ssim_sum += scalar(ssim(image, view.image.clone()));
+    bar.finish_and_clear();
+    write_checkpoint(&trainer)?;
+    write_ply(&run.file("point_cloud.ply"), &trainer.set).map_err(|e| e.to_string())?;
+    let renders = run.file("renders");
+    std::fs::create_dir_all(&renders).map_err(|e| format!("{}: {e}", renders.display()))?;
+    for (k, view) in trainer.views.test.iter().enumerate() {
+        let render = trainer.render_test(k).map_err(|e| e.to_string())?;
+        let pair = side_by_side(&[srgb_image(&render.color), srgb_image(&view.image)]);
+        write_png(&renders.join(format!("{}.png", view.name)), &pair).map_err(|e| e.to_string())?;
     }
-    let (test_psnr, test_ssim) = (psnr_sum / test.len() as f64, ssim_sum / test.len() as f64);
     let seconds = start.elapsed().as_secs_f64();
-    println!("held-out PSNR {test_psnr:.2} dB, SSIM {test_ssim:.4}; {seconds:.0} s in all");
-    let dir = PathBuf::from("runs/3dgs").join(&args.name);
-    if let Err(e) = std::fs::create_dir_all(&dir) {
-        eprintln!("error: {}: {e}", dir.display());
-        return ExitCode::FAILURE;
-    }
-    if let Err(e) = write_ply(&dir.join("point_cloud.ply"), &set) {
-        eprintln!("error: {e}");
-        return ExitCode::FAILURE;
-    }
+    let rate = (trainer.step - first_step) as f64 / loop_start.elapsed().as_secs_f64();
+    let last = evaluations.last().cloned();
     let metrics = serde_json::json!({
-        "iterations": args.iterations, "size": args.size, "seed": args.seed,
-        "gaussians": set.len(), "test_psnr": test_psnr, "test_ssim": test_ssim, "seconds": seconds,
+        "method": "3dgs", "evaluations": evaluations, "final": last,
+        "gaussians": trainer.set.len(), "seconds": seconds, "steps_per_second": rate,
+        "backend": config.backend.name(),
     });
-    if let Err(e) = std::fs::write(dir.join("metrics.json"), metrics.to_string()) {
-        eprintln!("error: {e}");
-        return ExitCode::FAILURE;
+    run.write_json("metrics.json", &metrics)
+        .map_err(|e| e.to_string())?;
+    if let Some(e) = last {
+        let path = run.path.display().to_string();
+        say(
+            &mut run,
+            None,
+            format!(
+                "held-out PSNR {:.2} dB, SSIM {:.4}; {} Gaussians; {rate:.1} it/s, {seconds:.0} s in all; wrote {}",
+                e.psnr,
+                e.ssim,
+                trainer.set.len(),
+                path
+            ),
+        );
     }
-    println!("wrote {}", dir.display());
-    ExitCode::SUCCESS
+    Ok(ExitCode::SUCCESS)
 }
