@@ -373,7 +373,7 @@ fn nerfstudio(path: &Path, config: &DataConfig, device: &Device) -> Result<ViewS
                 camera.cy *= s;
             }
             if let Some(depth) = &decoded.depth
-                && index % config.test_every != 0
+                && !index.is_multiple_of(config.test_every)
             {
                 back_project(
                     &camera,

@@ -126,11 +126,13 @@ fn checkpoints_round_trip_exactly_and_bad_files_are_named() {
 }
 
 fn small_config(strategy: Strategy) -> StaticConfig {
-    let mut c = StaticConfig::default();
-    c.iterations = 40;
+    let mut c = StaticConfig {
+        iterations: 40,
+        sh_degree_every: 10,
+        ..Default::default()
+    };
     c.data.size = 24;
     c.data.init_stride = 3;
-    c.sh_degree_every = 10;
     c.densify.strategy = strategy;
     c.densify.start = 4;
     c.densify.every = 8;

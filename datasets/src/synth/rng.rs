@@ -7,6 +7,8 @@
 pub struct Rng(pub u64);
 
 impl Rng {
+    /// A uniform sample in [0, 1).
+    #[allow(clippy::should_implement_trait)] // a generator of floats, not an iterator
     pub fn next(&mut self) -> f64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;

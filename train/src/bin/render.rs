@@ -166,13 +166,9 @@ fn orbit(set: &GaussianSet, cameras: &[Camera], frames: usize, size: u32, fov: f
         )
     } else {
         // A camera's up in the world is −(row 1 of R) (OpenCV: y points down).
-        let mut up = [0.0f32; 3];
-        for c in cameras {
-            for k in 0..3 {
-                up[k] -= c.world_to_camera[1][k];
-            }
-        }
-        let up = normalize(up);
+        let up = normalize(std::array::from_fn(|k| {
+            -cameras.iter().map(|c| c.world_to_camera[1][k]).sum::<f32>()
+        }));
         let (mut radius, mut height) = (0.0, 0.0);
         for c in cameras {
             let d = sub(c.position(), centre);
