@@ -3,7 +3,7 @@
 //! frame of the monocular room (two 320×240 views, a point light casting floor shadows through
 //! six cube-map faces). Timed on all cores; each setting's mean absolute colour error is against
 //! a 4×4-supersampled, 4096²-shadow-map reference of the same scene.
-//! Run with `cargo bench -p splatzoo-datasets --bench synth`.
+//! Run with `cargo bench --workspace --bench synth`.
 
 use burn::tensor::Device;
 use splatzoo_datasets::synth::{Preset, Scene, SceneConfig};

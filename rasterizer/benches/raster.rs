@@ -1,7 +1,7 @@
 //! Rasterizer benchmark: forward and forward+backward time and peak host memory for
 //! N ∈ {10k, 100k, 1M} splats at 256², 512² and 1920×1080 on every backend built in.
 //!
-//! `cargo bench -p splatzoo-rasterizer --bench raster [-- --quick] [-- --backends flex,ndarray]`
+//! `cargo bench --workspace --bench raster [-- --quick] [-- --backends flex,ndarray]`
 //! prints a Markdown table. Peak memory is the high-water mark of host allocations during the
 //! measured call (a counting allocator), above what was live before it; GPU device memory is
 //! not measured.

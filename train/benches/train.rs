@@ -2,8 +2,8 @@
 //! Gaussians from depth, SH degree 3, no density control so every backend does the same work).
 //!
 //! ```sh
-//! cargo bench -p splatzoo-train --bench train                 # flex, ndarray, wgpu
-//! cargo bench -p splatzoo-train --bench train -- flex 200     # one backend, 200 steps
+//! cargo bench --workspace --bench train                 # flex, ndarray, wgpu
+//! cargo bench --workspace --bench train -- flex 200     # one backend, 200 steps
 //! ```
 //!
 //! Each backend runs in its own child process so that its peak resident memory (`VmHWM`, which

@@ -592,3 +592,40 @@ fn lpips_matches_its_definition_on_random_alexnet_weights() {
         "{e}"
     );
 }
+
+/// The loop is backend-generic: a few steps on NdArray and on wgpu (lavapipe without a GPU)
+/// give the same held-out image as on Flex, up to float rounding amplified by Adam.
+#[test]
+fn training_agrees_across_backends() {
+    use splatzoo_train::backend::Backend;
+    let config = |backend| {
+        let mut c = StaticConfig {
+            backend,
+            iterations: 6,
+            ..Default::default()
+        };
+        c.data.size = 24;
+        c.densify.strategy = Strategy::None;
+        c
+    };
+    let image = |backend: Backend| {
+        let device = backend.device();
+        let mut trainer = StaticTrainer::new(config(backend), &device).unwrap();
+        for _ in 0..6 {
+            trainer.step().unwrap();
+        }
+        host(&trainer.render_test(0).unwrap().color)
+    };
+    let reference = image(Backend::Flex);
+    for backend in [Backend::Ndarray, Backend::Wgpu] {
+        let other = image(backend);
+        let mse = reference
+            .iter()
+            .zip(&other)
+            .map(|(a, b)| ((a - b) as f64).powi(2))
+            .sum::<f64>()
+            / reference.len() as f64;
+        let psnr = -10.0 * mse.max(1e-20).log10();
+        assert!(psnr > 45.0, "{backend:?} vs flex: {psnr:.1} dB");
+    }
+}

@@ -141,11 +141,14 @@ fn main() -> ExitCode {
             start.elapsed().as_secs_f64()
         );
         let total = frames.len();
+        let bar = indicatif::ProgressBar::new(total as u64);
         let result = write_scene(&scene, &dir, &frames, |done| {
-            if done == total || done % 10 == 0 {
+            bar.set_position(done as u64);
+            if bar.is_hidden() && (done == total || done % 10 == 0) {
                 println!("  rendered {done}/{total} frames");
             }
         });
+        bar.finish_and_clear();
         if let Err(e) = result {
             eprintln!("error: {e}");
             return ExitCode::FAILURE;

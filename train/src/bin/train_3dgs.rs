@@ -173,11 +173,8 @@ fn run(args: Args) -> Result<ExitCode, String> {
         ),
     );
     let interrupted = Arc::new(AtomicBool::new(false));
-    {
-        let flag = interrupted.clone();
-        ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
-            .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))?;
-    }
+    signal_hook::flag::register(signal_hook::consts::SIGINT, interrupted.clone())
+        .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))?;
     let bar = ProgressBar::new(config.iterations as u64).with_position(trainer.step as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} {per_sec} eta {eta} {msg}")
