@@ -5,4 +5,5 @@
 
 pub mod anchor;
 pub mod body;
+pub mod pickle;
 pub mod rotation;

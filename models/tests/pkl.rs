@@ -251,3 +251,63 @@ fn chumpy_and_broken_pickles_get_clear_errors() {
             .contains(".npz or .pkl")
     );
 }
+
+/// The general reader on what [`Writer`] produces in the three forms data files use (checked
+/// once against Python: `pickle.load`, `joblib.load` and `np.load(allow_pickle=True)` read these
+/// bytes back to the same values, and this reader reads theirs).
+#[test]
+fn plain_joblib_and_npy_object_pickles_read_back() {
+    use splatzoo_models::pickle::{Writer, load_npy_object, to_array, unpickle};
+    for joblib in [false, true] {
+        let mut w = Writer::new(joblib);
+        w.begin_dict().int(1).begin_dict().str("pose").begin_list();
+        w.array(&[2, 3], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.5], false);
+        w.array(&[1], &[7.25], true);
+        w.end_list().str("x").float(2.5).end_dict().end_dict();
+        let bytes = w.finish();
+        let root = unpickle(&bytes).unwrap();
+        let person = root
+            .get("1")
+            .expect("integer key found by its decimal text");
+        let poses = person.get("pose").unwrap().items().unwrap();
+        let a = to_array(poses[0]).unwrap();
+        assert_eq!(
+            (a.shape.clone(), a.values.clone()),
+            (vec![2, 3], vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.5])
+        );
+        assert_eq!(to_array(poses[1]).unwrap().values, vec![7.25]);
+        assert_eq!(person.get("x").unwrap().as_f64(), Some(2.5));
+        // Cut inside the array data: an error, not a short array.
+        let cut = &bytes[..bytes.len() - 12];
+        assert!(unpickle(cut).is_err(), "joblib {joblib}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut w = Writer::new(false);
+    w.begin_object_scalar()
+        .begin_dict()
+        .str("ims")
+        .begin_list()
+        .begin_dict()
+        .str("ims")
+        .begin_list()
+        .str("Camera_B1/000000.jpg")
+        .end_list()
+        .end_dict()
+        .end_list()
+        .end_dict()
+        .end_object_scalar();
+    let path = dir.path().join("annots.npy");
+    std::fs::write(
+        &path,
+        splatzoo_models::pickle::npy_object_bytes(&w.finish()),
+    )
+    .unwrap();
+    let annots = load_npy_object(&path).unwrap();
+    let first = annots.get("ims").unwrap().items().unwrap()[0]
+        .get("ims")
+        .unwrap()
+        .items()
+        .unwrap()[0]
+        .as_str();
+    assert_eq!(first.as_deref(), Some("Camera_B1/000000.jpg"));
+}
