@@ -8,6 +8,7 @@
 
 pub mod error;
 pub mod files;
+pub mod formats;
 pub mod image_io;
 pub mod nerfstudio;
 pub mod obj;

@@ -808,7 +808,7 @@ impl Writer {
 /// as `np.save(path, value, allow_pickle=True)` does.
 pub fn npy_object_bytes(pickle: &[u8]) -> Vec<u8> {
     let mut header = "{'descr': '|O', 'fortran_order': False, 'shape': (), }".to_owned();
-    while (10 + header.len() + 1) % 64 != 0 {
+    while !(10 + header.len() + 1).is_multiple_of(64) {
         header.push(' ');
     }
     header.push('\n');

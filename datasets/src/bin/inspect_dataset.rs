@@ -1,0 +1,87 @@
+//! `inspect-dataset`: what a dataset folder holds, in our terms: its format (detected, or
+//! `--format`), frames, cameras, people and their valid frames, splits, sparse points, image
+//! sizes; then every image and mask decoded in parallel (bounded batches) and checked against
+//! its camera. Prints the first problem, if any, and exits non-zero.
+//!
+//! ```sh
+//! cargo run --release --bin inspect-dataset -- path/to/CoreView_377
+//! cargo run --release --bin inspect-dataset -- path/to/neuman/bike --limit 50
+//! ```
+
+use clap::Parser;
+use splatzoo_datasets::formats::{Format, check::check, load};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser, Debug)]
+#[command(about = "Inspect a dataset folder (NeuMan, ZJU-MoCap, nerfstudio)")]
+struct Args {
+    root: PathBuf,
+    /// The format (detected from the files when left out).
+    #[arg(long, value_enum)]
+    format: Option<Format>,
+    /// Decode and check at most this many views.
+    #[arg(long)]
+    limit: Option<usize>,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let dataset = match load(&args.root, args.format) {
+        Ok(d) => d,
+        Err(e) => {
+            println!("first problem: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let cameras = dataset.camera_names();
+    println!("format: {:?}", dataset.format);
+    println!("frames: {}", dataset.frame_count);
+    let shown: Vec<&str> = cameras.iter().take(6).copied().collect();
+    let more = if cameras.len() > 6 { ", …" } else { "" };
+    println!("cameras: {} ({}{more})", cameras.len(), shown.join(", "));
+    println!("views: {}", dataset.views.len());
+    for person in &dataset.people {
+        let valid = person.frames.iter().filter(|f| f.is_some()).count();
+        println!(
+            "person {}: valid in {valid} of {} frames",
+            person.person,
+            person.frames.len()
+        );
+    }
+    for (name, views) in &dataset.splits {
+        println!("split {name}: {} views", views.len());
+    }
+    if !dataset.points.is_empty() {
+        println!("sparse points: {}", dataset.points.len());
+    }
+    let report = check(&dataset, args.limit);
+    let sizes: Vec<String> = report
+        .sizes
+        .iter()
+        .map(|(w, h)| format!("{w}×{h}"))
+        .collect();
+    println!(
+        "decoded {} images and {} masks; resolution {}",
+        report.images,
+        report.masks,
+        if sizes.is_empty() {
+            "-".into()
+        } else {
+            sizes.join(", ")
+        }
+    );
+    match report.problems.first() {
+        Some((file, problem)) => {
+            println!(
+                "first problem: {file}: {problem} ({} problems in all)",
+                report.problems.len()
+            );
+            ExitCode::FAILURE
+        }
+        None => {
+            println!("no problems found");
+            ExitCode::SUCCESS
+        }
+    }
+}

@@ -1,0 +1,271 @@
+//! Public datasets, read as released (or in the preprocessed form their main codebase uses) into
+//! one set of types: [`ViewRecord`] (an image with its camera in our conventions: OpenCV axes,
+//! world-to-camera, metres, pixels; its distortion; its mask), [`PoseTrack`] (SMPL-layout
+//! parameters per frame, with the frames where the person is valid), and [`Dataset`].
+//!
+//! Each format module writes down, beside the code, every conversion from its conventions to
+//! ours. So far: NeuMan ([`neuman`], over a COLMAP text model, [`colmap`]), ZJU-MoCap in its
+//! original and refined layouts ([`zju`]) and nerfstudio folders. [`detect`] recognises a
+//! folder's format; [`check`] decodes every image and mask in parallel, in bounded batches.
+
+pub mod check;
+pub mod colmap;
+pub mod neuman;
+pub mod zju;
+
+use crate::DatasetError;
+use splatzoo_rasterizer::Camera;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The formats this module reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// apple/ml-neuman scene folders (COLMAP text model, segmentations, SMPL, alignments).
+    Neuman,
+    /// ZJU-MoCap `CoreView_*` folders (`annots.npy`, `params/`, `Camera_B*/`, `mask*/`), and the
+    /// refined layout (`images/<cam>/`, `mask/<cam>/`, `smpl_params/`).
+    Zju,
+    /// A nerfstudio `transforms.json` folder (cameras and images only).
+    Nerfstudio,
+}
+
+/// OpenCV lens distortion (`k1 k2 p1 p2 k3`); zero for undistorted images.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Distortion {
+    pub k1: f64,
+    pub k2: f64,
+    pub p1: f64,
+    pub p2: f64,
+    pub k3: f64,
+}
+
+/// How a mask file marks the person.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MaskConvention {
+    /// Non-zero pixels are the person (ZJU-MoCap's `mask/`, `mask_cihp/`).
+    NonZeroIsPerson,
+    /// 0 is the person and 255 the background (NeuMan's `segmentations/`).
+    ZeroIsPerson,
+}
+
+/// One image of the dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViewRecord {
+    /// Index of the moment it shows (into [`PoseTrack::frames`]).
+    pub frame: usize,
+    /// The sensor that took it (a camera name, or the image name for a moving camera).
+    pub camera_name: String,
+    /// Our conventions: OpenCV axes, world-to-camera, metres (or the format's world unit, said
+    /// by the format), pixels at the image's resolution.
+    pub camera: Camera,
+    pub distortion: Distortion,
+    pub image: PathBuf,
+    pub mask: Option<PathBuf>,
+    pub mask_convention: MaskConvention,
+}
+
+/// `x_world = scale · R · x + t`: where a format's SMPL output lives in its world.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Similarity {
+    pub scale: f64,
+    pub rotation: [[f64; 3]; 3],
+    pub translation: [f64; 3],
+}
+
+impl Similarity {
+    pub const IDENTITY: Similarity = Similarity {
+        scale: 1.0,
+        rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        translation: [0.0; 3],
+    };
+
+    pub fn apply(&self, x: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|i| {
+            self.scale * (0..3).map(|j| self.rotation[i][j] * x[j]).sum::<f64>()
+                + self.translation[i]
+        })
+    }
+}
+
+/// SMPL-layout parameters of one person in one frame. The body is posed by the model with
+/// `global_orient` (axis-angle, about the root joint), `body_pose` (axis-angle per non-root
+/// joint), `betas` and `transl`, as SMPL does; then placed in the world by `world_from_smpl`.
+/// Formats whose global rotation is not SMPL's (ZJU-MoCap's `Rh` rotates about the model origin;
+/// NeuMan's alignment carries a scale) keep it there, so no conversion needs the body model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BodyFrame {
+    pub global_orient: [f64; 3],
+    pub body_pose: Vec<f64>,
+    pub betas: Vec<f64>,
+    pub transl: [f64; 3],
+    pub world_from_smpl: Similarity,
+}
+
+/// One person's parameters over the dataset's frames; `None` where the person is not valid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseTrack {
+    pub person: String,
+    pub frames: Vec<Option<BodyFrame>>,
+}
+
+/// A sparse point: position, sRGB colour in [0, 1].
+pub type SparsePoint = ([f64; 3], [f32; 3]);
+
+/// What a loader found.
+#[derive(Debug, Clone)]
+pub struct Dataset {
+    pub format: Format,
+    pub root: PathBuf,
+    pub frame_count: usize,
+    pub views: Vec<ViewRecord>,
+    pub people: Vec<PoseTrack>,
+    /// Named splits of view indices (e.g. NeuMan's train/val/test files).
+    pub splits: BTreeMap<String, Vec<usize>>,
+    /// Sparse points with sRGB colours in [0, 1], where the format has them.
+    pub points: Vec<SparsePoint>,
+}
+
+impl Dataset {
+    /// Distinct camera names.
+    pub fn camera_names(&self) -> Vec<&str> {
+        let mut names: Vec<&str> = self.views.iter().map(|v| v.camera_name.as_str()).collect();
+        names.sort_unstable();
+        names.dedup();
+        names
+    }
+}
+
+/// Recognises a dataset folder's format by the files it holds.
+pub fn detect(root: &Path) -> Option<Format> {
+    if root.join("sparse/images.txt").is_file() && root.join("alignments.npy").is_file() {
+        Some(Format::Neuman)
+    } else if root.join("annots.npy").is_file() {
+        Some(Format::Zju)
+    } else if root.join("transforms.json").is_file() {
+        Some(Format::Nerfstudio)
+    } else {
+        None
+    }
+}
+
+/// Loads `root` as `format` (detected when `None`).
+pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError> {
+    let format = match format.or_else(|| detect(root)) {
+        Some(f) => f,
+        None => {
+            return Err(DatasetError::file(
+                root,
+                "format not recognised (NeuMan: sparse/images.txt + alignments.npy; \
+                 ZJU-MoCap: annots.npy; nerfstudio: transforms.json); name it with --format",
+            ));
+        }
+    };
+    match format {
+        Format::Neuman => neuman::load(root),
+        Format::Zju => zju::load(root),
+        Format::Nerfstudio => nerfstudio(root),
+    }
+}
+
+fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
+    let frames = crate::nerfstudio::read_transforms(&root.join("transforms.json"))?;
+    let mut times: Vec<f64> = frames.iter().filter_map(|f| f.time).collect();
+    times.sort_by(f64::total_cmp);
+    times.dedup();
+    let views = frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| ViewRecord {
+            frame: f
+                .time
+                .and_then(|t| times.iter().position(|&x| x == t))
+                .unwrap_or(k),
+            camera_name: f.file_path.clone(),
+            camera: f.camera,
+            distortion: Distortion::default(),
+            image: root.join(&f.file_path),
+            mask: f.mask_path.as_ref().map(|m| root.join(m)),
+            mask_convention: MaskConvention::NonZeroIsPerson,
+        })
+        .collect::<Vec<_>>();
+    Ok(Dataset {
+        format: Format::Nerfstudio,
+        root: root.to_path_buf(),
+        frame_count: views.iter().map(|v| v.frame + 1).max().unwrap_or(0),
+        views,
+        people: Vec::new(),
+        splits: BTreeMap::new(),
+        points: Vec::new(),
+    })
+}
+
+/// Rotation matrix of an axis-angle vector (Rodrigues).
+pub fn axis_angle_matrix(v: [f64; 3]) -> [[f64; 3]; 3] {
+    let angle = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if angle < 1e-12 {
+        return Similarity::IDENTITY.rotation;
+    }
+    let [x, y, z] = v.map(|c| c / angle);
+    let (s, c) = angle.sin_cos();
+    let t = 1.0 - c;
+    [
+        [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+        [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+        [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
+    ]
+}
+
+/// A finite array of exactly `len` values from `values`, or an error naming `file`, `key` and
+/// the expected shape.
+pub(crate) fn expect_values(
+    file: &Path,
+    key: &str,
+    shape: &[usize],
+    expected: &str,
+    values: &[f64],
+    len: usize,
+) -> Result<Vec<f64>, DatasetError> {
+    if values.len() != len {
+        return Err(DatasetError::field(
+            file,
+            key,
+            format!("shape {shape:?}, expected {expected}"),
+        ));
+    }
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(DatasetError::field(
+            file,
+            key,
+            format!("non-finite value at flat index {i} (expected {expected}, finite)"),
+        ));
+    }
+    Ok(values.to_vec())
+}
+
+/// A camera from OpenCV intrinsics and a world-to-camera `R`, `t`.
+pub(crate) fn camera_from(
+    k: [f64; 4],
+    size: (u32, u32),
+    rotation: [[f64; 3]; 3],
+    translation: [f64; 3],
+) -> Camera {
+    let mut world_to_camera = [[0.0f32; 4]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            world_to_camera[i][j] = rotation[i][j] as f32;
+        }
+        world_to_camera[i][3] = translation[i] as f32;
+    }
+    Camera {
+        fx: k[0] as f32,
+        fy: k[1] as f32,
+        cx: k[2] as f32,
+        cy: k[3] as f32,
+        width: size.0,
+        height: size.1,
+        near: 0.01,
+        far: 1e4,
+        world_to_camera,
+    }
+}

@@ -1,0 +1,474 @@
+//! Dataset loaders on small fixtures written here in each format's exact layout (pickles,
+//! joblib dumps and numpy object files through `splatzoo_models::pickle::Writer`, which Python's
+//! own readers accept): every convention conversion, and bad input named by file, field and
+//! expected shape.
+
+use splatzoo_datasets::formats::check::check;
+use splatzoo_datasets::formats::zju::parameter_index;
+use splatzoo_datasets::formats::{Format, MaskConvention, detect, load};
+use splatzoo_models::pickle::{Writer, npy_object_bytes};
+use std::path::Path;
+
+fn rot_y(angle: f64) -> [[f64; 3]; 3] {
+    let (s, c) = angle.sin_cos();
+    [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
+}
+
+fn rot_z(angle: f64) -> [[f64; 3]; 3] {
+    let (s, c) = angle.sin_cos();
+    [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() < 1e-5
+}
+
+fn write_rgb(path: &Path, w: u32, h: u32) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    image::RgbImage::from_fn(w, h, |x, y| image::Rgb([x as u8 * 20, y as u8 * 30, 90]))
+        .save(path)
+        .unwrap();
+}
+
+/// A grey mask with `inside` inside the block x < 4, y < 3 and `outside` elsewhere.
+fn write_mask(path: &Path, w: u32, h: u32, inside: u8, outside: u8) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    image::GrayImage::from_fn(w, h, |x, y| {
+        image::Luma([if x < 4 && y < 3 { inside } else { outside }])
+    })
+    .save(path)
+    .unwrap();
+}
+
+/// A NeuMan scene: 3 frames (listed out of order), frame 2 without an alignment.
+fn neuman_fixture(root: &Path, nan_pose: bool) {
+    let sparse = root.join("sparse");
+    std::fs::create_dir_all(&sparse).unwrap();
+    std::fs::write(
+        sparse.join("cameras.txt"),
+        "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n# Number of cameras: 1\n1 PINHOLE 8 6 10 11 4 3\n",
+    )
+    .unwrap();
+    // Image 1 turned 90° about y: q = (cos 45°, 0, sin 45°, 0).
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    std::fs::write(
+        sparse.join("images.txt"),
+        format!(
+            "# Image list with two lines of data per image:\n#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n#   POINTS2D[] as (X, Y, POINT3D_ID)\n# Number of images: 3, mean observations per image: 0\n\
+             2 1 0 0 0 0 0 2 1 00002.png\n\n1 {h} 0 {h} 0 0.5 0 3 1 00001.png\n\n3 1 0 0 0 0 0 1 1 00000.png\n\n"
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        sparse.join("points3D.txt"),
+        "# 3D point list with one line of data per point:\n1 0.5 1 2 255 0 51 0.1 1 0\n2 0 0 4 0 255 0 0.2\n",
+    )
+    .unwrap();
+    for k in 0..3 {
+        write_rgb(&root.join(format!("images/0000{k}.png")), 8, 6);
+        write_mask(
+            &root.join(format!("segmentations/0000{k}.png")),
+            8,
+            6,
+            0,
+            255,
+        );
+    }
+    let mut w = Writer::new(true);
+    w.begin_dict().int(1).begin_dict().str("pose").begin_list();
+    for k in 0..3 {
+        let mut pose = vec![0.0; 72];
+        pose[0] = 0.1 * k as f64;
+        pose[2] = -0.2;
+        if nan_pose && k == 1 {
+            pose[40] = f64::NAN;
+        }
+        w.array(&[72], &pose, false);
+    }
+    w.end_list().str("betas").begin_list();
+    for k in 0..3 {
+        w.array(&[10], &[0.5 * k as f64; 10], false);
+    }
+    w.end_list().end_dict().end_dict();
+    std::fs::write(root.join("smpl_output_optimized.pkl"), w.finish()).unwrap();
+    // A = [(s R)ᵀ; t] with s = 1.5, R = 30° about z, t = (1, 2, 3), for frames 0 and 1.
+    let (s, r) = (1.5, rot_z(std::f64::consts::FRAC_PI_6));
+    // Row i of A's 3×3 block is column i of s R.
+    let mut a: Vec<f64> = (0..9).map(|k| s * r[k % 3][k / 3]).collect();
+    a.extend([1.0, 2.0, 3.0]);
+    let mut w = Writer::new(false);
+    w.begin_object_scalar().begin_dict();
+    for name in ["00000.png", "00001.png"] {
+        w.str(name).array(&[4, 3], &a, true);
+    }
+    w.end_dict().end_object_scalar();
+    std::fs::write(root.join("alignments.npy"), npy_object_bytes(&w.finish())).unwrap();
+    std::fs::write(root.join("test_split.txt"), "00001.png\n").unwrap();
+}
+
+#[test]
+fn neuman_scenes_load_in_our_conventions() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    neuman_fixture(root, false);
+    assert_eq!(detect(root), Some(Format::Neuman));
+    let d = load(root, None).unwrap();
+    let names: Vec<&str> = d.views.iter().map(|v| v.camera_name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["00000.png", "00001.png", "00002.png"],
+        "sorted by name"
+    );
+    assert_eq!(
+        d.views.iter().map(|v| v.frame).collect::<Vec<_>>(),
+        [0, 1, 2]
+    );
+    // COLMAP world-to-camera: R from (w, x, y, z), t as given; intrinsics unchanged.
+    let cam = d.views[1].camera;
+    let r = rot_y(std::f64::consts::FRAC_PI_2);
+    for (row, want) in cam.world_to_camera.iter().zip(&r) {
+        assert!(
+            (0..3).all(|j| close(row[j] as f64, want[j])),
+            "{:?}",
+            cam.world_to_camera
+        );
+    }
+    assert_eq!(
+        [cam.world_to_camera[0][3], cam.world_to_camera[2][3]],
+        [0.5, 3.0]
+    );
+    assert_eq!(
+        (cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height),
+        (10.0, 11.0, 4.0, 3.0, 8, 6)
+    );
+    assert_eq!(d.views[0].mask_convention, MaskConvention::ZeroIsPerson);
+    assert_eq!(d.splits["test"], vec![1]);
+    assert_eq!(d.points.len(), 2);
+    assert!(close(d.points[0].1[2] as f64, 0.2));
+    // SMPL by frame number; the alignment as x_world = s R x + t.
+    let track = &d.people[0];
+    let f1 = track.frames[1].as_ref().unwrap();
+    assert!(close(f1.global_orient[0], 0.1) && close(f1.global_orient[2], -0.2));
+    assert_eq!(f1.body_pose.len(), 69);
+    assert!(close(f1.betas[0], 0.5));
+    let m = &f1.world_from_smpl;
+    assert!(close(m.scale, 1.5), "{}", m.scale);
+    let x = [0.3, -0.7, 1.1];
+    let rz = rot_z(std::f64::consts::FRAC_PI_6);
+    let want: Vec<f64> = (0..3)
+        .map(|i| 1.5 * (0..3).map(|j| rz[i][j] * x[j]).sum::<f64>() + [1.0, 2.0, 3.0][i])
+        .collect();
+    let got = m.apply(x);
+    assert!(
+        (0..3).all(|i| close(got[i], want[i])),
+        "{got:?} vs {want:?}"
+    );
+    assert!(track.frames[2].is_none(), "no alignment, not valid");
+    // Every image and mask decodes at its camera's size; masks hold person pixels.
+    let report = check(&d, None);
+    assert_eq!(
+        (report.images, report.masks, report.problems.len()),
+        (3, 3, 0),
+        "{report:?}"
+    );
+}
+
+#[test]
+fn bad_neuman_input_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    neuman_fixture(root, true);
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("smpl_output_optimized.pkl") && e.contains("1.pose[1]") && e.contains("(72,)"),
+        "{e}"
+    );
+    neuman_fixture(root, false);
+    // A truncated image and a mask with the wrong convention are reported by the check.
+    let image = root.join("images/00001.png");
+    let bytes = std::fs::read(&image).unwrap();
+    std::fs::write(&image, &bytes[..bytes.len() / 2]).unwrap();
+    write_mask(&root.join("segmentations/00002.png"), 8, 6, 255, 255);
+    let report = check(&load(root, None).unwrap(), None);
+    assert!(
+        report.problems[0].0.ends_with("00001.png") && report.problems[0].1.contains("decode"),
+        "{report:?}"
+    );
+    assert!(
+        report
+            .problems
+            .iter()
+            .any(|(f, p)| f.ends_with("segmentations/00002.png") && p.contains("no person")),
+        "{report:?}"
+    );
+    // An unsupported camera model names the line and the model.
+    std::fs::write(root.join("sparse/cameras.txt"), "1 FISHEYE 8 6 1 2 3 4\n").unwrap();
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("cameras.txt") && e.contains("line 1") && e.contains("FISHEYE"),
+        "{e}"
+    );
+    std::fs::remove_file(root.join("alignments.npy")).unwrap();
+    neuman_fixture(root, false);
+    std::fs::write(root.join("alignments.npy"), b"not numpy").unwrap();
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(e.contains("alignments.npy"), "{e}");
+}
+
+/// One `(1, n)` float64 array per key.
+fn write_params(path: &Path, poses: &[f64], rh: [f64; 3], th: [f64; 3], shapes: &[f64]) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut w = Writer::new(false);
+    w.begin_object_scalar().begin_dict();
+    w.str("poses").array(&[1, poses.len()], poses, true);
+    w.str("Rh").array(&[1, 3], &rh, true);
+    w.str("Th").array(&[1, 3], &th, true);
+    w.str("shapes").array(&[1, shapes.len()], shapes, true);
+    w.end_dict().end_object_scalar();
+    std::fs::write(path, npy_object_bytes(&w.finish())).unwrap();
+}
+
+/// `annots.npy` for two cameras and two frames with image paths from `path(frame, camera)`.
+fn write_annots(root: &Path, k_shape: [usize; 2], path: impl Fn(usize, usize) -> String) {
+    let mut w = Writer::new(false);
+    w.begin_object_scalar()
+        .begin_dict()
+        .str("cams")
+        .begin_dict();
+    w.str("K").begin_list();
+    for c in 0..2 {
+        let f = 500.0 + c as f64;
+        let k = [f, 0.0, 4.0, 0.0, f + 2.0, 3.0, 0.0, 0.0, 1.0];
+        let n = k_shape[0] * k_shape[1];
+        w.array(
+            &k_shape,
+            &k[..n.min(9)]
+                .iter()
+                .chain(std::iter::repeat(&0.0))
+                .take(n)
+                .copied()
+                .collect::<Vec<_>>(),
+            true,
+        );
+    }
+    w.end_list().str("D").begin_list();
+    for _ in 0..2 {
+        w.array(&[5, 1], &[0.1, -0.05, 0.001, 0.002, 0.01], true);
+    }
+    w.end_list().str("R").begin_list();
+    for c in 0..2 {
+        let r = rot_y(0.3 * c as f64);
+        w.array(&[3, 3], &r.concat(), true);
+    }
+    w.end_list().str("T").begin_list();
+    for c in 0..2 {
+        w.array(&[3, 1], &[100.0 * c as f64, -250.0, 3000.0], true);
+    }
+    w.end_list().end_dict().str("ims").begin_list();
+    for f in 0..2 {
+        w.begin_dict().str("ims").begin_list();
+        for c in 0..2 {
+            w.str(&path(f, c));
+        }
+        w.end_list().end_dict();
+    }
+    w.end_list().end_dict().end_object_scalar();
+    std::fs::write(root.join("annots.npy"), npy_object_bytes(&w.finish())).unwrap();
+}
+
+fn zju_fixture(root: &Path) {
+    write_annots(root, [3, 3], |f, c| format!("Camera_B{}/{f:06}.jpg", c + 1));
+    for f in 0..2 {
+        for c in 0..2 {
+            write_rgb(&root.join(format!("Camera_B{}/{f:06}.jpg", c + 1)), 10, 8);
+            write_mask(
+                &root.join(format!("mask_cihp/Camera_B{}/{f:06}.png", c + 1)),
+                10,
+                8,
+                1,
+                0,
+            );
+        }
+        let mut poses = vec![0.0; 72];
+        poses[3] = 0.2 + f as f64;
+        write_params(
+            &root.join(format!("params/{f}.npy")),
+            &poses,
+            [0.0, std::f64::consts::FRAC_PI_2, 0.0],
+            [0.1, 0.2, 0.3 + f as f64],
+            &[0.25; 10],
+        );
+    }
+}
+
+#[test]
+fn zju_mocap_loads_in_our_conventions() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    zju_fixture(root);
+    assert_eq!(detect(root), Some(Format::Zju));
+    let d = load(root, None).unwrap();
+    assert_eq!((d.frame_count, d.views.len()), (2, 4));
+    assert_eq!(d.camera_names(), ["Camera_B1", "Camera_B2"]);
+    let v = &d.views[3];
+    assert_eq!((v.frame, v.camera_name.as_str()), (1, "Camera_B2"));
+    let cam = v.camera;
+    // T in millimetres → metres; OpenCV integer pixel centres → ours at +0.5; size from the image.
+    assert_eq!(
+        [
+            cam.world_to_camera[0][3],
+            cam.world_to_camera[1][3],
+            cam.world_to_camera[2][3]
+        ],
+        [0.1, -0.25, 3.0]
+    );
+    assert_eq!(
+        (cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height),
+        (501.0, 503.0, 4.5, 3.5, 10, 8)
+    );
+    assert!(close(cam.world_to_camera[0][2] as f64, 0.3f64.sin()));
+    assert!(
+        close(v.distortion.k1, 0.1)
+            && close(v.distortion.k3, 0.01)
+            && close(v.distortion.p2, 0.002)
+    );
+    assert_eq!(
+        v.mask.as_deref(),
+        Some(root.join("mask_cihp/Camera_B2/000001.png").as_path())
+    );
+    assert_eq!(v.mask_convention, MaskConvention::NonZeroIsPerson);
+    // x_world = R(Rh) x + Th: Rh = 90° about y.
+    let f1 = d.people[0].frames[1].as_ref().unwrap();
+    assert!(close(f1.body_pose[0], 1.2) && close(f1.betas[9], 0.25));
+    let got = f1.world_from_smpl.apply([1.0, 0.0, 0.0]);
+    assert!(
+        close(got[0], 0.1) && close(got[1], 0.2) && close(got[2], 1.3 - 1.0),
+        "{got:?}"
+    );
+    let report = check(&d, None);
+    assert_eq!(
+        (report.images, report.masks, report.problems.len()),
+        (4, 4, 0),
+        "{report:?}"
+    );
+    assert_eq!(report.sizes, vec![(10, 8)]);
+    // 313/315 name their frames 1-based in the file name; others by the number itself.
+    assert_eq!(
+        parameter_index("Camera (1)/CoreView_313_Camera_(1)_0001_2019-08-23_16-08-50.592.jpg"),
+        Some(1)
+    );
+    assert_eq!(parameter_index("Camera_B1/000012.jpg"), Some(12));
+}
+
+#[test]
+fn refined_zju_mocap_layout_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    write_annots(root, [3, 3], |f, c| format!("images/{c:02}/{f:06}.jpg"));
+    for f in 0..2 {
+        for c in 0..2 {
+            write_rgb(&root.join(format!("images/{c:02}/{f:06}.jpg")), 10, 8);
+            write_mask(&root.join(format!("mask/{c:02}/{f:06}.png")), 10, 8, 255, 0);
+        }
+    }
+    write_params(
+        &root.join("smpl_params/0.npy"),
+        &[0.0; 72],
+        [0.0; 3],
+        [0.0; 3],
+        &[0.0; 10],
+    );
+    let d = load(root, Some(Format::Zju)).unwrap();
+    assert_eq!(d.camera_names(), ["00", "01"]);
+    assert_eq!(
+        d.views[1].mask.as_deref(),
+        Some(root.join("mask/01/000000.png").as_path())
+    );
+    assert!(
+        d.people[0].frames[0].is_some() && d.people[0].frames[1].is_none(),
+        "frame 1 has no parameters"
+    );
+}
+
+#[test]
+fn bad_zju_mocap_input_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    zju_fixture(root);
+    write_params(
+        &root.join("params/1.npy"),
+        &[0.0; 72],
+        [0.0; 3],
+        [0.0, f64::NAN, 0.0],
+        &[0.0; 10],
+    );
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("params/1.npy") && e.contains("`Th`") && e.contains("(1, 3)"),
+        "{e}"
+    );
+    write_params(
+        &root.join("params/1.npy"),
+        &[0.0; 69],
+        [0.0; 3],
+        [0.0; 3],
+        &[0.0; 10],
+    );
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("params/1.npy")
+            && e.contains("poses")
+            && e.contains("[1, 69]")
+            && e.contains("(1, 72)"),
+        "{e}"
+    );
+    zju_fixture(root);
+    write_annots(root, [2, 3], |f, c| format!("Camera_B{}/{f:06}.jpg", c + 1));
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("annots.npy") && e.contains("cams.K[0]") && e.contains("(3, 3)"),
+        "{e}"
+    );
+    zju_fixture(root);
+    std::fs::remove_file(root.join("Camera_B2/000000.jpg")).unwrap();
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(e.contains("Camera_B2/000000.jpg"), "{e}");
+}
+
+#[test]
+fn the_inspect_command_reports_and_names_the_first_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("scene");
+    neuman_fixture(&root, false);
+    let run = |root: &Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_inspect-dataset"))
+            .arg(root)
+            .output()
+            .unwrap()
+    };
+    let ok = run(&root);
+    let text = String::from_utf8_lossy(&ok.stdout).into_owned();
+    assert!(ok.status.success(), "{text}");
+    for expected in [
+        "format: Neuman",
+        "frames: 3",
+        "cameras: 3",
+        "person 1: valid in 2 of 3 frames",
+        "resolution 8×6",
+        "no problems found",
+    ] {
+        assert!(text.contains(expected), "{expected:?} in {text}");
+    }
+    let image = root.join("images/00002.png");
+    std::fs::write(&image, b"\x89PNG").unwrap();
+    let bad = run(&root);
+    let text = String::from_utf8_lossy(&bad.stdout).into_owned();
+    assert!(!bad.status.success());
+    assert!(
+        text.contains("first problem") && text.contains("00002.png"),
+        "{text}"
+    );
+    let nothing = run(dir.path());
+    assert!(!nothing.status.success());
+    assert!(String::from_utf8_lossy(&nothing.stdout).contains("format not recognised"));
+}
