@@ -3,6 +3,7 @@
 //! own readers accept): every convention conversion, and bad input named by file, field and
 //! expected shape.
 
+use npyz::WriterBuilder;
 use splatzoo_datasets::formats::check::check;
 use splatzoo_datasets::formats::zju::parameter_index;
 use splatzoo_datasets::formats::{Format, MaskConvention, detect, load};
@@ -471,4 +472,351 @@ fn the_inspect_command_reports_and_names_the_first_problem() {
     let nothing = run(dir.path());
     assert!(!nothing.status.success());
     assert!(String::from_utf8_lossy(&nothing.stdout).contains("format not recognised"));
+}
+
+/// Writes arrays into an `.npz` as float32 (`f32 = true`) or float64, or as int64 scalars.
+fn write_npz(path: &Path, arrays: &[(&str, &[u64], &[f64])], f32s: bool) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut npz = npyz::npz::NpzWriter::create(path).unwrap();
+    for &(name, shape, values) in arrays {
+        if shape.is_empty() {
+            let mut w = npz
+                .array::<i64>(name, Default::default())
+                .unwrap()
+                .default_dtype()
+                .shape(shape)
+                .begin_nd()
+                .unwrap();
+            w.extend(values.iter().map(|&v| v as i64)).unwrap();
+            w.finish().unwrap();
+        } else if f32s {
+            let mut w = npz
+                .array::<f32>(name, Default::default())
+                .unwrap()
+                .default_dtype()
+                .shape(shape)
+                .begin_nd()
+                .unwrap();
+            w.extend(values.iter().map(|&v| v as f32)).unwrap();
+            w.finish().unwrap();
+        } else {
+            let mut w = npz
+                .array::<f64>(name, Default::default())
+                .unwrap()
+                .default_dtype()
+                .shape(shape)
+                .begin_nd()
+                .unwrap();
+            w.extend(values.iter().copied()).unwrap();
+            w.finish().unwrap();
+        }
+    }
+    npz.zip_writer().finish().unwrap();
+}
+
+fn write_npy_u8(path: &Path, h: usize, w: usize, values: &[u8]) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut out = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(&[h as u64, w as u64])
+        .writer(std::fs::File::create(path).unwrap())
+        .begin_nd()
+        .unwrap();
+    out.extend(values.iter().copied()).unwrap();
+    out.finish().unwrap();
+}
+
+/// InstantAvatar's PeopleSnapshot form: 6 frames of 6×8 in a folder named like a subject.
+fn snapshot_fixture(root: &Path, nan: bool) {
+    let k = [500.0, 0.0, 2.5, 0.0, 510.0, 3.5, 0.0, 0.0, 1.0];
+    let e: Vec<f64> = (0..16)
+        .map(|i| if i % 5 == 0 { 1.0 } else { 0.0 })
+        .collect();
+    write_npz(
+        &root.join("cameras.npz"),
+        &[
+            ("intrinsic", &[3, 3], &k),
+            ("extrinsic", &[4, 4], &e),
+            ("height", &[], &[8.0]),
+            ("width", &[], &[6.0]),
+        ],
+        false,
+    );
+    let n = 6;
+    for f in 0..n {
+        write_rgb(&root.join(format!("images/image_{f:04}.png")), 6, 8);
+        let mask: Vec<u8> = (0..48).map(|i| (i % 6 < 3) as u8).collect();
+        write_npy_u8(&root.join(format!("masks/mask_{f:04}.npy")), 8, 6, &mask);
+    }
+    let mut thetas: Vec<f64> = (0..n * 72).map(|i| (i % 72) as f64 * 0.001).collect();
+    thetas[0] = std::f64::consts::PI;
+    if nan {
+        thetas[72 * 2 + 10] = f64::NAN;
+    }
+    let transl: Vec<f64> = (0..n).flat_map(|f| [0.1, 0.2, 5.0 + f as f64]).collect();
+    write_npz(
+        &root.join("poses.npz"),
+        &[
+            ("thetas", &[n as u64, 72], &thetas),
+            ("transl", &[n as u64, 3], &transl),
+            ("betas", &[10], &[0.3; 10]),
+        ],
+        true,
+    );
+}
+
+#[test]
+fn people_snapshot_npz_form_loads_with_its_splits_and_refined_poses() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("male-3-casual");
+    snapshot_fixture(&root, false);
+    // Refined poses for the test split (frames 456.. do not exist here; train = 0, 4).
+    write_npz(
+        &root.join("poses/anim_nerf_train.npz"),
+        &[
+            ("global_orient", &[2, 3], &[1.0, 0.0, 0.0, 2.0, 0.0, 0.0]),
+            ("body_pose", &[2, 69], &[0.5; 138]),
+            ("transl", &[2, 3], &[0.0, 0.0, 7.0, 0.0, 0.0, 8.0]),
+            ("betas", &[1, 10], &[0.9; 10]),
+        ],
+        true,
+    );
+    assert_eq!(detect(&root), Some(Format::PeopleSnapshot));
+    let d = load(&root, None).unwrap();
+    assert_eq!((d.frame_count, d.views.len()), (6, 6));
+    let cam = d.views[0].camera;
+    assert_eq!(
+        (cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height),
+        (500.0, 510.0, 3.0, 4.0, 6, 8),
+        "OpenCV centres → +0.5"
+    );
+    assert_eq!(d.splits["train"], vec![0, 4]);
+    let frames = &d.people[0].frames;
+    let f1 = frames[1].as_ref().unwrap();
+    assert!(
+        close(f1.global_orient[0], 0.0)
+            && close(f1.body_pose[0], 0.003)
+            && close(f1.transl[2], 6.0)
+    );
+    let f4 = frames[4].as_ref().unwrap();
+    assert!(
+        close(f4.global_orient[0], 2.0) && close(f4.transl[2], 8.0) && close(f4.betas[0], 0.9),
+        "the refined train poses replace poses.npz on their frames"
+    );
+    let report = check(&d, None);
+    assert_eq!(
+        (report.images, report.masks, report.problems.len()),
+        (6, 6, 0),
+        "{report:?}"
+    );
+    // Bad input: NaN in a pose, a missing key.
+    snapshot_fixture(&root, true);
+    let e = load(&root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("poses.npz") && e.contains("thetas") && e.contains("(6, 72)"),
+        "{e}"
+    );
+    write_npz(
+        &root.join("poses.npz"),
+        &[("thetas", &[6, 72], &[0.0; 432])],
+        true,
+    );
+    let e = load(&root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("poses.npz") && e.contains("transl") && e.contains("missing"),
+        "{e}"
+    );
+}
+
+fn write_npy_f64(path: &Path, shape: &[u64], values: &[f64]) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut out = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(shape)
+        .writer(std::fs::File::create(path).unwrap())
+        .begin_nd()
+        .unwrap();
+    out.extend(values.iter().copied()).unwrap();
+    out.finish().unwrap();
+}
+
+/// GHG's look-at rule: camera at `position` looking at `target` with OpenCV axes (y down), world
+/// y up: rows of R are right, down, forward; t = −R · position.
+fn ghg_extrinsic(position: [f64; 3], target: [f64; 3]) -> Vec<f64> {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let norm = |a: [f64; 3]| {
+        let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        a.map(|v| v / l)
+    };
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let forward = norm(sub(target, position));
+    let right = norm(cross(forward, [0.0, 1.0, 0.0]));
+    let down = cross(forward, right);
+    let r = [right, down, forward];
+    let mut e = Vec::new();
+    for row in r {
+        e.extend(row);
+        e.push(-(0..3).map(|j| row[j] * position[j]).sum::<f64>());
+    }
+    // [r00 r01 r02 t0; …] row-major.
+    let mut out = Vec::new();
+    for i in 0..3 {
+        out.extend(&e[4 * i..4 * i + 4]);
+    }
+    out
+}
+
+fn ghg_fixture(root: &Path) {
+    for position in [0usize, 3, 6] {
+        let s = format!("0004_{position:03}");
+        for v in 0..2 {
+            write_rgb(&root.join(format!("img/{s}/{v}.jpg")), 16, 16);
+            write_mask(&root.join(format!("mask/{s}/{v}.png")), 16, 16, 255, 0);
+            write_npy_f64(
+                &root.join(format!("parm/{s}/{v}_intrinsic.npy")),
+                &[3, 3],
+                &[12.8, 0.0, 8.0, 0.0, 12.8, 8.4, 0.0, 0.0, 1.0],
+            );
+            let angle = (position as f64 * 22.5 + v as f64 * 22.5).to_radians();
+            let position_3d = [2.0 * angle.sin(), 1.128, 2.0 * angle.cos()];
+            write_npy_f64(
+                &root.join(format!("parm/{s}/{v}_extrinsic.npy")),
+                &[3, 4],
+                &ghg_extrinsic(position_3d, [0.0, 0.85, 0.0]),
+            );
+        }
+    }
+    let mut w = Writer::new(false);
+    w.begin_dict();
+    for (key, n) in [
+        ("betas", 10),
+        ("global_orient", 3),
+        ("body_pose", 63),
+        ("left_hand_pose", 12),
+        ("expression", 10),
+    ] {
+        w.str(key).array(&[1, n], &vec![0.1; n], false);
+    }
+    w.str("scale")
+        .array(&[1], &[0.9], false)
+        .str("translation")
+        .array(&[1, 3], &[0.0, 0.3, 0.1], false);
+    w.end_dict();
+    std::fs::create_dir_all(root.join("smplx/0004")).unwrap();
+    std::fs::write(root.join("smplx/0004/smplx_param.pkl"), w.finish()).unwrap();
+    let mut w = Writer::new(false);
+    w.begin_object_scalar().begin_dict();
+    w.str("vy_max")
+        .numpy_scalar(1.2)
+        .str("vy_min")
+        .numpy_scalar(-0.6);
+    w.str("human_height")
+        .array(&[1], &[1.8], true)
+        .str("offset")
+        .numpy_scalar(-0.5);
+    w.str("move_delta_axis_0")
+        .array(&[1], &[0.05], true)
+        .str("move_delta_axis_2")
+        .array(&[1], &[-0.01], true);
+    w.end_dict().end_object_scalar();
+    std::fs::create_dir_all(root.join("transform")).unwrap();
+    std::fs::write(
+        root.join("transform/0004_transform.npy"),
+        npy_object_bytes(&w.finish()),
+    )
+    .unwrap();
+}
+
+#[test]
+fn ghg_thuman_renders_load_with_the_test_protocol() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    ghg_fixture(root);
+    assert_eq!(detect(root), Some(Format::Ghg));
+    let d = load(root, None).unwrap();
+    assert_eq!((d.frame_count, d.views.len()), (1, 6));
+    assert_eq!(d.views[2].camera_name, "003/0");
+    assert_eq!(
+        d.splits["inputs"],
+        vec![0, 4],
+        "view 0 of ring positions 0 and 6"
+    );
+    assert_eq!(d.splits["targets"], vec![2]);
+    // The look-at target projects to the principal point; a higher point projects higher (v
+    // smaller): OpenCV world-to-camera with world y up, K unchanged.
+    for view in &d.views {
+        let c = view.camera;
+        let project = |p: [f64; 3]| {
+            let x: Vec<f64> = (0..3)
+                .map(|i| {
+                    (0..3)
+                        .map(|j| c.world_to_camera[i][j] as f64 * p[j])
+                        .sum::<f64>()
+                        + c.world_to_camera[i][3] as f64
+                })
+                .collect();
+            (
+                c.fx as f64 * x[0] / x[2] + c.cx as f64,
+                c.fy as f64 * x[1] / x[2] + c.cy as f64,
+            )
+        };
+        let (u, v) = project([0.0, 0.85, 0.0]);
+        assert!(close(u, 8.0) && close(v, 8.4), "{u} {v}");
+        assert!(project([0.0, 1.35, 0.0]).1 < v);
+    }
+    // SMPL-X placed by scale, translation and GHG's transform: k = 1.8 / 1.8 = 1.
+    let body = d.people[0].frames[0].as_ref().unwrap();
+    assert_eq!(body.body_pose.len(), 63);
+    assert_eq!(body.extra["left_hand_pose"].len(), 12);
+    let m = &body.world_from_smpl;
+    assert!(close(m.scale, 0.9));
+    let t = m.translation;
+    assert!(
+        close(t[0], 0.05) && close(t[1], 0.3 + 0.5) && close(t[2], 0.1 - 0.01),
+        "{t:?}"
+    );
+    let report = check(&d, None);
+    assert_eq!(
+        (report.images, report.masks, report.problems.len()),
+        (6, 6, 0),
+        "{report:?}"
+    );
+    // A wrongly shaped extrinsic is named.
+    write_npy_f64(
+        &root.join("parm/0004_003/1_extrinsic.npy"),
+        &[4, 4],
+        &[0.0; 16],
+    );
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("1_extrinsic.npy") && e.contains("(3, 4)") && e.contains("[4, 4]"),
+        "{e}"
+    );
+}
+
+#[test]
+fn nerfstudio_folders_load_as_datasets() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = splatzoo_datasets::synth::SceneConfig {
+        width: 16,
+        height: 16,
+        ..splatzoo_datasets::synth::SceneConfig::new(splatzoo_datasets::synth::Preset::Static, 1)
+    }
+    .build(&burn::tensor::Device::flex());
+    splatzoo_datasets::synth::export::write_scene(&scene, dir.path(), &[0], |_| {}).unwrap();
+    assert_eq!(detect(dir.path()), Some(Format::Nerfstudio));
+    let d = load(dir.path(), None).unwrap();
+    assert_eq!(d.views.len(), 48);
+    let report = check(&d, None);
+    assert_eq!(
+        (report.images, report.problems.len()),
+        (48, 0),
+        "{report:?}"
+    );
 }

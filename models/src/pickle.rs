@@ -411,6 +411,24 @@ pub fn to_array(v: &Value) -> Result<Array, String> {
         return Ok(a.clone());
     }
     let class = class_of(v).unwrap_or_default();
+    if class.ends_with("multiarray.scalar")
+        && let Value::Object { args, .. } = v
+        && let Value::Tuple(a) = &**args
+        && let (Some(dtype), Some(raw)) = (a.first(), a.get(1))
+    {
+        // A numpy scalar: scalar(dtype, raw bytes).
+        let (kind, size, little) = dtype_of(dtype)?;
+        let raw: Vec<u8> = match &**raw {
+            Value::Bytes(b) => b.clone(),
+            Value::Str(t) => t.chars().map(|c| c as u32 as u8).collect(),
+            _ => return Err("malformed numpy scalar".into()),
+        };
+        let values = decode(&raw, kind, size, little)?;
+        return Ok(Array {
+            shape: Vec::new(),
+            values,
+        });
+    }
     if class.starts_with("chumpy") {
         return Err(format!("is a chumpy object ({class})"));
     }
@@ -732,6 +750,16 @@ impl Writer {
 
     pub fn end_object_scalar(&mut self) -> &mut Self {
         self.end_list().op(b"tb")
+    }
+
+    /// A numpy float64 scalar (`np.float64(v)`).
+    pub fn numpy_scalar(&mut self, v: f64) -> &mut Self {
+        self.global("numpy.core.multiarray", "scalar").dtype("f8");
+        let raw = v.to_le_bytes();
+        self.op(b"B")
+            .op(&(raw.len() as u32).to_le_bytes())
+            .op(&raw)
+            .op(&[0x86, b'R'])
     }
 
     /// A float32 (`f4`) or float64 (`f8`) array of `shape`.

@@ -5,12 +5,16 @@
 //!
 //! Each format module writes down, beside the code, every conversion from its conventions to
 //! ours. So far: NeuMan ([`neuman`], over a COLMAP text model, [`colmap`]), ZJU-MoCap in its
-//! original and refined layouts ([`zju`]) and nerfstudio folders. [`detect`] recognises a
+//! original and refined layouts ([`zju`]), PeopleSnapshot in InstantAvatar's npz form
+//! ([`people_snapshot`]), THuman2.0 renders of the GHG protocol ([`ghg`]) and nerfstudio
+//! folders. [`detect`] recognises a
 //! folder's format; [`check`] decodes every image and mask in parallel, in bounded batches.
 
 pub mod check;
 pub mod colmap;
+pub mod ghg;
 pub mod neuman;
+pub mod people_snapshot;
 pub mod zju;
 
 use crate::DatasetError;
@@ -26,6 +30,12 @@ pub enum Format {
     /// ZJU-MoCap `CoreView_*` folders (`annots.npy`, `params/`, `Camera_B*/`, `mask*/`), and the
     /// refined layout (`images/<cam>/`, `mask/<cam>/`, `smpl_params/`).
     Zju,
+    /// PeopleSnapshot as InstantAvatar preprocesses it (`cameras.npz`, `poses.npz`, `images/`,
+    /// `masks/*.npy`).
+    PeopleSnapshot,
+    /// THuman2.0 rendered by the GHG / GPS-Gaussian protocol (`img/`, `mask/`, `parm/`, with
+    /// SMPL-X parameters where present).
+    Ghg,
     /// A nerfstudio `transforms.json` folder (cameras and images only).
     Nerfstudio,
 }
@@ -100,6 +110,9 @@ pub struct BodyFrame {
     pub betas: Vec<f64>,
     pub transl: [f64; 3],
     pub world_from_smpl: Similarity,
+    /// Further parameters by their SMPL-X names (`left_hand_pose`, `jaw_pose`, `expression`, …),
+    /// as the format stores them.
+    pub extra: BTreeMap<String, Vec<f64>>,
 }
 
 /// One person's parameters over the dataset's frames; `None` where the person is not valid.
@@ -126,6 +139,65 @@ pub struct Dataset {
     pub points: Vec<SparsePoint>,
 }
 
+/// A decoded mask: width, height, person per pixel (row-major).
+pub type Mask = (u32, u32, Vec<bool>);
+
+impl ViewRecord {
+    /// The mask as (width, height, person per pixel), from a PNG/JPEG or a `.npy` array
+    /// `(H, W)`, read with this view's convention.
+    pub fn read_mask(&self) -> Option<Result<Mask, DatasetError>> {
+        let path = self.mask.as_ref()?;
+        let person = |v: f64| match self.mask_convention {
+            MaskConvention::NonZeroIsPerson => v != 0.0,
+            MaskConvention::ZeroIsPerson => v == 0.0,
+        };
+        if path.extension().is_some_and(|e| e == "npy") {
+            return Some(read_npy(path).and_then(|a| match a.shape[..] {
+                [h, w] => Ok((
+                    w as u32,
+                    h as u32,
+                    a.values.iter().map(|&v| person(v)).collect(),
+                )),
+                _ => Err(DatasetError::file(
+                    path,
+                    format!("shape {:?}, expected (H, W)", a.shape),
+                )),
+            }));
+        }
+        Some(
+            image::open(path)
+                .map_err(|e| DatasetError::file(path, format!("cannot decode ({e})")))
+                .map(|img| {
+                    let grey = img.to_luma8();
+                    let values = grey.pixels().map(|p| person(p[0] as f64)).collect();
+                    (grey.width(), grey.height(), values)
+                }),
+        )
+    }
+}
+
+/// A numeric `.npy` file as `f64` in C order.
+pub fn read_npy(path: &Path) -> Result<splatzoo_models::body::npz::Array, DatasetError> {
+    let file = std::fs::File::open(path)
+        .map_err(|e| DatasetError::file(path, format!("cannot read ({e})")))?;
+    let npy = npyz::NpyFile::new(std::io::BufReader::new(file))
+        .map_err(|e| DatasetError::file(path, format!("not a .npy file ({e})")))?;
+    splatzoo_models::body::npz::decode_npy(npy).map_err(|p| DatasetError::file(path, p))
+}
+
+/// Array `key` of an `.npz` archive.
+pub fn read_npz_key(
+    path: &Path,
+    archive: &mut npyz::npz::NpzArchive<std::io::BufReader<std::fs::File>>,
+    key: &str,
+) -> Result<splatzoo_models::body::npz::Array, DatasetError> {
+    let npy = archive
+        .by_name(key)
+        .map_err(|e| DatasetError::field(path, key, format!("cannot read ({e})")))?
+        .ok_or_else(|| DatasetError::field(path, key, "missing"))?;
+    splatzoo_models::body::npz::decode_npy(npy).map_err(|p| DatasetError::field(path, key, p))
+}
+
 impl Dataset {
     /// Distinct camera names.
     pub fn camera_names(&self) -> Vec<&str> {
@@ -142,6 +214,10 @@ pub fn detect(root: &Path) -> Option<Format> {
         Some(Format::Neuman)
     } else if root.join("annots.npy").is_file() {
         Some(Format::Zju)
+    } else if root.join("cameras.npz").is_file() && root.join("poses.npz").is_file() {
+        Some(Format::PeopleSnapshot)
+    } else if root.join("parm").is_dir() && root.join("img").is_dir() {
+        Some(Format::Ghg)
     } else if root.join("transforms.json").is_file() {
         Some(Format::Nerfstudio)
     } else {
@@ -157,13 +233,15 @@ pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError
             return Err(DatasetError::file(
                 root,
                 "format not recognised (NeuMan: sparse/images.txt + alignments.npy; \
-                 ZJU-MoCap: annots.npy; nerfstudio: transforms.json); name it with --format",
+                 ZJU-MoCap: annots.npy; PeopleSnapshot: cameras.npz + poses.npz; GHG: img/ + parm/; nerfstudio: transforms.json); name it with --format",
             ));
         }
     };
     match format {
         Format::Neuman => neuman::load(root),
         Format::Zju => zju::load(root),
+        Format::PeopleSnapshot => people_snapshot::load(root),
+        Format::Ghg => ghg::load(root),
         Format::Nerfstudio => nerfstudio(root),
     }
 }

@@ -185,6 +185,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 rotation: m.map(|r| r.map(|v| v / scale)),
                 translation: [a[9], a[10], a[11]],
             },
+            extra: Default::default(),
         });
     }
 

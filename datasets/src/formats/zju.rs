@@ -63,6 +63,7 @@ fn body_frame(file: &Path) -> Result<BodyFrame, DatasetError> {
             rotation: axis_angle_matrix([rh[0], rh[1], rh[2]]),
             translation: [th[0], th[1], th[2]],
         },
+        extra: Default::default(),
     })
 }
 
