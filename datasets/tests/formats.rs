@@ -820,3 +820,282 @@ fn nerfstudio_folders_load_as_datasets() {
         "{report:?}"
     );
 }
+
+fn write_matrix(path: &Path, m: [[f64; 4]; 4]) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let rows: Vec<String> = m
+        .iter()
+        .map(|r| {
+            r.iter()
+                .map(|v| format!("{v:.18e}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
+        .collect();
+    std::fs::write(path, rows.join("\n") + "\n").unwrap();
+}
+
+fn pose_z(angle: f64, t: [f64; 3]) -> [[f64; 4]; 4] {
+    let r = rot_z(angle);
+    [
+        [r[0][0], r[0][1], r[0][2], t[0]],
+        [r[1][0], r[1][1], r[1][2], t[1]],
+        [r[2][0], r[2][1], r[2][2], t[2]],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
+}
+
+fn mul(a: [[f64; 4]; 4], b: [[f64; 4]; 4]) -> [[f64; 4]; 4] {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..4).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+/// Two frames, cameras 0 and 3; the ego turned 30° about z at (10, 5, 0), then 2 m ahead.
+fn drivestudio_fixture(root: &Path, smpl_shape_ok: bool) {
+    let heading = std::f64::consts::FRAC_PI_6;
+    let ego = [
+        pose_z(heading, [10.0, 5.0, 0.0]),
+        pose_z(
+            heading,
+            [10.0 + 2.0 * heading.cos(), 5.0 + 2.0 * heading.sin(), 0.0],
+        ),
+    ];
+    for (t, e) in ego.iter().enumerate() {
+        write_matrix(&root.join(format!("ego_pose/{t:03}.txt")), *e);
+    }
+    write_matrix(&root.join("extrinsics/0.txt"), pose_z(0.0, [1.5, 0.0, 1.6]));
+    write_matrix(
+        &root.join("extrinsics/3.txt"),
+        pose_z(std::f64::consts::FRAC_PI_2, [1.0, 0.9, 1.6]),
+    );
+    std::fs::create_dir_all(root.join("intrinsics")).unwrap();
+    std::fs::write(
+        root.join("intrinsics/0.txt"),
+        "100\n101\n16\n12\n0.01\n0\n0\n0\n0\n",
+    )
+    .unwrap();
+    std::fs::write(root.join("intrinsics/3.txt"), "90 90 16 12 0 0 0 0 0\n").unwrap();
+    for t in 0..2 {
+        for cam in [0, 3] {
+            write_rgb(&root.join(format!("images/{t:03}_{cam}.jpg")), 32, 24);
+            write_mask(
+                &root.join(format!("dynamic_masks/human/{t:03}_{cam}.png")),
+                32,
+                24,
+                255,
+                0,
+            );
+        }
+    }
+    // A pedestrian 8 m ahead of the first ego pose, 0.9 m up (its box centre), in both frames.
+    let object = |t: usize| mul(ego[0], pose_z(0.2 * t as f64, [8.0, 0.0, 0.9]));
+    let rows = |m: [[f64; 4]; 4]| serde_json::json!(m.to_vec());
+    let info = serde_json::json!({
+        "0": {"id": "abc", "class_name": "Vehicle", "frame_annotations": {
+            "frame_idx": [0], "obj_to_world": [rows(mul(ego[0], pose_z(0.0, [20.0, 3.0, 0.8])))], "box_size": [[4.5, 1.9, 1.6]]}},
+        "1": {"id": "def", "class_name": "Pedestrian", "frame_annotations": {
+            "frame_idx": [0, 1], "obj_to_world": [rows(object(0)), rows(object(1))], "box_size": [[0.6, 0.6, 1.8], [0.6, 0.7, 1.8]]}},
+    });
+    std::fs::create_dir_all(root.join("instances")).unwrap();
+    std::fs::write(root.join("instances/instances_info.json"), info.to_string()).unwrap();
+    std::fs::write(
+        root.join("instances/frame_instances.json"),
+        r#"{"0": [0, 1], "1": [1]}"#,
+    )
+    .unwrap();
+    // SMPL: identity orientation in camera 0's frame; joint 1 turned 0.5 rad about x; frame 1
+    // not valid.
+    let identity = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    let (s, c) = 0.5f64.sin_cos();
+    let turned = [1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c];
+    let mut body = Vec::new();
+    for _ in 0..2 {
+        body.extend(turned);
+        for _ in 1..23 {
+            body.extend(identity);
+        }
+    }
+    let mut w = Writer::new(true);
+    w.begin_dict().int(1).begin_dict().str("smpl").begin_dict();
+    let orient_shape: &[usize] = if smpl_shape_ok {
+        &[2, 1, 3, 3]
+    } else {
+        &[2, 9]
+    };
+    w.str("global_orient").torch_tensor(
+        orient_shape,
+        &[identity, identity].concat(),
+        "FloatStorage",
+    );
+    w.str("body_pose")
+        .torch_tensor(&[2, 23, 3, 3], &body, "FloatStorage");
+    w.str("betas")
+        .torch_tensor(&[2, 10], &[0.4; 20], "FloatStorage");
+    w.end_dict();
+    w.str("selected_cam_idx")
+        .torch_tensor(&[2], &[0.0, -1.0], "LongStorage");
+    w.str("valid_mask")
+        .torch_tensor(&[2], &[1.0, 0.0], "BoolStorage");
+    w.end_dict().end_dict();
+    std::fs::create_dir_all(root.join("humanpose")).unwrap();
+    std::fs::write(root.join("humanpose/smpl.pkl"), w.finish()).unwrap();
+}
+
+#[test]
+fn drivestudio_waymo_scenes_load_in_our_conventions() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    drivestudio_fixture(root, true);
+    assert_eq!(detect(root), Some(Format::Drivestudio));
+    let d = load(root, None).unwrap();
+    assert_eq!((d.frame_count, d.views.len()), (2, 4));
+    let front = d
+        .views
+        .iter()
+        .find(|v| v.camera_name == "0" && v.frame == 0)
+        .unwrap()
+        .camera;
+    // Re-centred on the first ego pose; OpenCV z (forward) = world +x, x = −y, y = −z.
+    let want = [[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]];
+    for (row, w) in front.world_to_camera.iter().zip(want) {
+        assert!(
+            (0..3).all(|j| close(row[j] as f64, w[j])),
+            "{:?}",
+            front.world_to_camera
+        );
+    }
+    let p = front.position();
+    assert!(
+        close(p[0] as f64, 1.5) && close(p[1] as f64, 0.0) && close(p[2] as f64, 1.6),
+        "{p:?}"
+    );
+    assert_eq!(
+        (
+            front.fx,
+            front.fy,
+            front.cx,
+            front.cy,
+            front.width,
+            front.height
+        ),
+        (100.0, 101.0, 16.0, 12.0, 32, 24)
+    );
+    let later = d
+        .views
+        .iter()
+        .find(|v| v.camera_name == "0" && v.frame == 1)
+        .unwrap()
+        .camera
+        .position();
+    assert!(
+        close(later[0] as f64, 3.5) && close(later[1] as f64, 0.0),
+        "2 m ahead: {later:?}"
+    );
+    let side = d.views.iter().find(|v| v.camera_name == "3").unwrap();
+    assert_eq!(side.camera.fx, 90.0, "intrinsics on one line");
+    let d0 = d.views.iter().find(|v| v.camera_name == "0").unwrap();
+    assert!(close(d0.distortion.k1, 0.01));
+    // Boxes re-centred.
+    let walker = d
+        .boxes
+        .iter()
+        .find(|b| b.class == "Pedestrian" && b.frame == 0)
+        .unwrap();
+    let c = [
+        walker.object_to_world[0][3],
+        walker.object_to_world[1][3],
+        walker.object_to_world[2][3],
+    ];
+    assert!(
+        close(c[0], 8.0) && close(c[1], 0.0) && close(c[2], 0.9),
+        "{c:?}"
+    );
+    assert_eq!(d.boxes.len(), 3);
+    // SMPL from torch tensors: camera-frame orientation → world by camera 0's rotation, root at
+    // the box centre, rotation matrices → axis-angle, frame 1 not valid.
+    let person = &d.people[0];
+    assert_eq!(person.person, "1");
+    let f0 = person.frames[0].as_ref().unwrap();
+    assert!(
+        close(f0.body_pose[0], 0.5) && close(f0.body_pose[1], 0.0) && close(f0.body_pose[3], 0.0)
+    );
+    assert!(f0.global_orient.iter().all(|v| close(*v, 0.0)));
+    let r = f0.world_from_smpl.rotation;
+    assert!(
+        (0..3).all(|i| (0..3).all(|j| close(r[i][j], want[j][i]))),
+        "camera-to-world rotation: {r:?}"
+    );
+    assert_eq!(
+        f0.root_position.map(|p| p.map(|v| (v * 1e6).round() / 1e6)),
+        Some([8.0, 0.0, 0.9])
+    );
+    assert!(close(f0.betas[3], 0.4));
+    assert!(person.frames[1].is_none());
+    let report = check(&d, None);
+    assert_eq!(
+        (report.images, report.masks, report.problems.len()),
+        (4, 4, 0),
+        "{report:?}"
+    );
+}
+
+#[test]
+fn bad_drivestudio_input_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    drivestudio_fixture(root, false);
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("smpl.pkl") && e.contains("1.smpl.global_orient") && e.contains("[F, 1, 3, 3]"),
+        "{e}"
+    );
+    drivestudio_fixture(root, true);
+    std::fs::write(
+        root.join("ego_pose/001.txt"),
+        "1 0 0 0\n0 2 0 0\n0 0 1 0\n0 0 0 1\n",
+    )
+    .unwrap();
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(e.contains("ego_pose/001.txt") && e.contains("rigid"), "{e}");
+    drivestudio_fixture(root, true);
+    std::fs::write(root.join("intrinsics/3.txt"), "90 90 16\n").unwrap();
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("intrinsics/3.txt") && e.contains("fx fy cx cy k1 k2 p1 p2 k3"),
+        "{e}"
+    );
+    drivestudio_fixture(root, true);
+    std::fs::write(root.join("instances/frame_instances.json"), r#"{"0": [7]}"#).unwrap();
+    let e = load(root, None).unwrap_err().to_string();
+    assert!(
+        e.contains("frame_instances.json") && e.contains("instance 7"),
+        "{e}"
+    );
+}
+
+#[test]
+fn rotation_matrices_convert_to_axis_angle_everywhere() {
+    use splatzoo_datasets::formats::axis_angle_matrix;
+    use splatzoo_datasets::formats::drivestudio::matrix_axis_angle;
+    let mut rng = splatzoo_datasets::synth::rng::Rng(4);
+    for k in 0..200 {
+        let angle = match k {
+            0 => 0.0,
+            1 => std::f64::consts::PI,
+            2 => std::f64::consts::PI - 1e-6,
+            _ => rng.range(0.0, std::f64::consts::PI),
+        };
+        let axis = [rng.normal(), rng.normal(), rng.normal()];
+        let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+        let v = axis.map(|a| a / n * angle);
+        let m = axis_angle_matrix(v);
+        let back = axis_angle_matrix(matrix_axis_angle(&m));
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!(
+                    (m[i][j] - back[i][j]).abs() < 1e-6,
+                    "angle {angle}: {m:?} vs {back:?}"
+                );
+            }
+        }
+    }
+}

@@ -35,6 +35,10 @@ pub enum Value {
     /// A numpy array read by [`to_array`] out of a joblib stream (joblib writes array bytes
     /// outside the pickle opcodes).
     Array(Array),
+    /// An integer wider than 64 bits (its little-endian bytes; e.g. torch's magic number).
+    BigInt(Vec<u8>),
+    /// A persistent id (`BINPERSID`): what torch's legacy format uses for storages.
+    Persistent(Rc<Value>),
     Mark,
 }
 
@@ -106,7 +110,11 @@ fn add_to(target: Rc<Value>, items: Vec<Rc<Value>>) -> Result<Rc<Value>, String>
 
 /// Runs the pickle program in `data` and returns its result (errors say what and where).
 pub fn unpickle(data: &[u8]) -> Result<Rc<Value>, String> {
-    let mut r = Reader { data, pos: 0 };
+    run(&mut Reader { data, pos: 0 })
+}
+
+/// Runs one pickle program from `r`'s position to its STOP.
+fn run(r: &mut Reader) -> Result<Rc<Value>, String> {
     let mut stack: Vec<Rc<Value>> = Vec::new();
     let mut memo: HashMap<u32, Rc<Value>> = HashMap::new();
     loop {
@@ -156,7 +164,8 @@ pub fn unpickle(data: &[u8]) -> Result<Rc<Value>, String> {
                 let n = r.u8()? as usize;
                 let bytes = r.take(n)?;
                 if n > 8 {
-                    return Err("integer wider than 64 bits".into());
+                    stack.push(Rc::new(Value::BigInt(bytes.to_vec())));
+                    continue;
                 }
                 let mut v: i64 = 0;
                 for (i, b) in bytes.iter().enumerate() {
@@ -242,7 +251,7 @@ pub fn unpickle(data: &[u8]) -> Result<Rc<Value>, String> {
                     other => return Err(format!("BUILD on {other:?}")),
                 };
                 let built = if class_of(&built).as_deref() == Some(JOBLIB_WRAPPER) {
-                    Value::Array(read_joblib_array(&built, &mut r)?)
+                    Value::Array(read_joblib_array(&built, r)?)
                 } else {
                     built
                 };
@@ -283,6 +292,10 @@ pub fn unpickle(data: &[u8]) -> Result<Rc<Value>, String> {
             }
             b'0' => {
                 pop(&mut stack)?;
+            }
+            b'Q' => {
+                let id = pop(&mut stack)?;
+                stack.push(Rc::new(Value::Persistent(id)));
             }
             b'1' => {
                 pop_mark(&mut stack)?;
@@ -428,6 +441,9 @@ pub fn to_array(v: &Value) -> Result<Array, String> {
             shape: Vec::new(),
             values,
         });
+    }
+    if class == "torch._utils._rebuild_tensor_v2" {
+        return torch_tensor(v);
     }
     if class.starts_with("chumpy") {
         return Err(format!("is a chumpy object ({class})"));
@@ -615,6 +631,107 @@ impl Value {
     }
 }
 
+/// A torch tensor pickled by plain `pickle`/`joblib`:
+/// `_rebuild_tensor_v2(storage, offset, size, stride, …)` with the storage as
+/// `torch.storage._load_from_bytes(blob)`, `blob` being torch's legacy (non-zip) `torch.save`
+/// of that storage: pickles of the magic number, protocol version and system info, then the
+/// storage as a persistent id `('storage', <type>, key, location, numel)`, then the list of
+/// keys, then per key an `i64` element count and the raw little-endian elements.
+fn torch_tensor(v: &Value) -> Result<Array, String> {
+    let Value::Object { args, .. } = v else {
+        return Err("malformed torch tensor".into());
+    };
+    let Value::Tuple(a) = &**args else {
+        return Err("malformed torch tensor".into());
+    };
+    let storage = a.first().ok_or("torch tensor without storage")?;
+    let offset = match a.get(1).map(|x| &**x) {
+        Some(Value::Int(o)) if *o >= 0 => *o as usize,
+        _ => return Err("torch tensor without a storage offset".into()),
+    };
+    let size = a
+        .get(2)
+        .and_then(|x| as_usize_tuple(x))
+        .ok_or("torch tensor without size")?;
+    let stride = a
+        .get(3)
+        .and_then(|x| as_usize_tuple(x))
+        .ok_or("torch tensor without stride")?;
+    if stride.len() != size.len() {
+        return Err("torch tensor size and stride differ in length".into());
+    }
+    let Value::Object { class, args, .. } = &**storage else {
+        return Err("torch storage is not `_load_from_bytes(…)`".into());
+    };
+    if global_name(class).as_deref() != Some("torch.storage._load_from_bytes") {
+        return Err(format!(
+            "torch storage built by {:?}, expected torch.storage._load_from_bytes",
+            global_name(class)
+        ));
+    }
+    let blob = match &**args {
+        Value::Tuple(b) => match b.first().map(|x| &**x) {
+            Some(Value::Bytes(bytes)) => bytes.clone(),
+            _ => return Err("torch storage without bytes".into()),
+        },
+        _ => return Err("torch storage without bytes".into()),
+    };
+    let storage = legacy_storage(&blob)?;
+    let count: usize = size.iter().product();
+    let mut values = Vec::with_capacity(count);
+    let mut index = vec![0usize; size.len()];
+    for _ in 0..count {
+        let at = offset + index.iter().zip(&stride).map(|(i, s)| i * s).sum::<usize>();
+        values.push(
+            *storage
+                .get(at)
+                .ok_or("torch tensor reaches past its storage")?,
+        );
+        for axis in (0..size.len()).rev() {
+            index[axis] += 1;
+            if index[axis] < size[axis] {
+                break;
+            }
+            index[axis] = 0;
+        }
+    }
+    Ok(Array {
+        shape: size,
+        values,
+    })
+}
+
+/// The elements of one storage saved in torch's legacy format (see [`torch_tensor`]).
+fn legacy_storage(blob: &[u8]) -> Result<Vec<f64>, String> {
+    let mut r = Reader { data: blob, pos: 0 };
+    for _ in 0..3 {
+        run(&mut r)?; // magic number, protocol version, system info
+    }
+    let main = run(&mut r)?;
+    let Value::Persistent(id) = &*main else {
+        return Err("legacy torch file does not hold a storage".into());
+    };
+    let Value::Tuple(id) = &**id else {
+        return Err("malformed storage id".into());
+    };
+    let kind = id
+        .get(1)
+        .and_then(|t| global_name(t))
+        .ok_or("storage id without a type")?;
+    let (code, size) = match kind.rsplit('.').next().unwrap_or("") {
+        "FloatStorage" => ('f', 4),
+        "DoubleStorage" => ('f', 8),
+        "LongStorage" => ('i', 8),
+        "IntStorage" => ('i', 4),
+        "ByteStorage" | "BoolStorage" => ('u', 1),
+        other => return Err(format!("torch storage type {other} is not read")),
+    };
+    run(&mut r)?; // the storage keys
+    let numel = r.u64()? as usize;
+    let raw = r.take(numel.checked_mul(size).ok_or("storage too large")?)?;
+    decode(raw, code, size, true)
+}
+
 /// Reads a pickle file (plain or joblib).
 pub fn load(path: &Path) -> Result<Rc<Value>, String> {
     let data = std::fs::read(path).map_err(|e| format!("cannot read ({e})"))?;
@@ -760,6 +877,78 @@ impl Writer {
             .op(&(raw.len() as u32).to_le_bytes())
             .op(&raw)
             .op(&[0x86, b'R'])
+    }
+
+    /// A torch tensor of `shape` (C-contiguous) whose storage is `FloatStorage`, `LongStorage`
+    /// or `BoolStorage`, as plain pickle and joblib write one (see [`torch_tensor`]).
+    pub fn torch_tensor(&mut self, shape: &[usize], values: &[f64], storage: &str) -> &mut Self {
+        assert_eq!(
+            shape.iter().product::<usize>(),
+            values.len(),
+            "values fill the shape"
+        );
+        let mut blob = Vec::new();
+        let mut small = |f: &dyn Fn(&mut Writer)| {
+            let mut w = Writer::new(false);
+            f(&mut w);
+            blob.extend(w.finish());
+        };
+        // Magic number 0x1950a86a20f9469cfc6c (LONG1, 10 bytes), protocol 1001, system info.
+        small(&|w| {
+            w.op(&[
+                0x8a, 10, 0x6c, 0xfc, 0x9c, 0x46, 0xf9, 0x20, 0x6a, 0xa8, 0x50, 0x19,
+            ]);
+        });
+        small(&|w| {
+            w.int(1001);
+        });
+        small(&|w| {
+            w.begin_dict().str("little_endian").op(&[0x88]).end_dict();
+        });
+        let numel = values.len();
+        small(&|w| {
+            w.op(b"(")
+                .str("storage")
+                .global("torch", storage)
+                .str("0")
+                .str("cpu");
+            w.int(numel as i32).op(b"tQ");
+        });
+        small(&|w| {
+            w.begin_list().str("0").end_list();
+        });
+        blob.extend((numel as u64).to_le_bytes());
+        match storage {
+            "FloatStorage" => blob.extend(values.iter().flat_map(|&v| (v as f32).to_le_bytes())),
+            "LongStorage" => blob.extend(values.iter().flat_map(|&v| (v as i64).to_le_bytes())),
+            "BoolStorage" => blob.extend(values.iter().map(|&v| (v != 0.0) as u8)),
+            other => panic!("the writer does not write {other}"),
+        }
+        let mut stride = vec![1usize; shape.len()];
+        for axis in (0..shape.len().saturating_sub(1)).rev() {
+            stride[axis] = stride[axis + 1] * shape[axis + 1];
+        }
+        self.global("torch._utils", "_rebuild_tensor_v2")
+            .op(b"(")
+            .global("torch.storage", "_load_from_bytes")
+            .op(b"B")
+            .op(&(blob.len() as u32).to_le_bytes())
+            .op(&blob)
+            .op(&[0x85, b'R']) // _load_from_bytes((blob,))
+            .int(0)
+            .op(b"(");
+        for &d in shape {
+            self.int(d as i32);
+        }
+        self.op(b"t(");
+        for &d in &stride {
+            self.int(d as i32);
+        }
+        self.op(b"t")
+            .op(&[0x89])
+            .global("collections", "OrderedDict")
+            .op(b")R")
+            .op(b"tR")
     }
 
     /// A float32 (`f4`) or float64 (`f8`) array of `shape`.

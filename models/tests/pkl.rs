@@ -311,3 +311,24 @@ fn plain_joblib_and_npy_object_pickles_read_back() {
         .as_str();
     assert_eq!(first.as_deref(), Some("Camera_B1/000000.jpg"));
 }
+
+/// Torch tensors as plain pickle / joblib write them (a legacy `torch.save` blob per storage),
+/// for the three storage types drivestudio's `smpl.pkl` holds.
+#[test]
+fn torch_tensors_read_back() {
+    use splatzoo_models::pickle::{Writer, to_array, unpickle};
+    for (storage, values) in [
+        ("FloatStorage", vec![1.5, -2.0, 3.25, 4.0, 5.0, 6.0]),
+        ("LongStorage", vec![0.0, -1.0, 7.0, 3.0, 2.0, 1.0]),
+        ("BoolStorage", vec![1.0, 0.0, 1.0, 1.0, 0.0, 0.0]),
+    ] {
+        let mut w = Writer::new(true);
+        w.begin_dict()
+            .str("t")
+            .torch_tensor(&[2, 3], &values, storage)
+            .end_dict();
+        let root = unpickle(&w.finish()).unwrap();
+        let a = to_array(root.get("t").unwrap()).unwrap_or_else(|e| panic!("{storage}: {e}"));
+        assert_eq!((a.shape, a.values), (vec![2, 3], values), "{storage}");
+    }
+}

@@ -123,6 +123,7 @@ fn body(root: &Path, subject: &str) -> Result<Option<BodyFrame>, DatasetError> {
             rotation: Similarity::IDENTITY.rotation,
             translation: std::array::from_fn(|i| k * translation[i] + shift[i]),
         },
+        root_position: None,
         extra,
     }))
 }
@@ -219,5 +220,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         people,
         splits,
         points: Vec::new(),
+        boxes: Vec::new(),
     })
 }

@@ -6,12 +6,13 @@
 //! Each format module writes down, beside the code, every conversion from its conventions to
 //! ours. So far: NeuMan ([`neuman`], over a COLMAP text model, [`colmap`]), ZJU-MoCap in its
 //! original and refined layouts ([`zju`]), PeopleSnapshot in InstantAvatar's npz form
-//! ([`people_snapshot`]), THuman2.0 renders of the GHG protocol ([`ghg`]) and nerfstudio
-//! folders. [`detect`] recognises a
+//! ([`people_snapshot`]), THuman2.0 renders of the GHG protocol ([`ghg`]), drivestudio's
+//! processed Waymo ([`drivestudio`]) and nerfstudio folders. [`detect`] recognises a
 //! folder's format; [`check`] decodes every image and mask in parallel, in bounded batches.
 
 pub mod check;
 pub mod colmap;
+pub mod drivestudio;
 pub mod ghg;
 pub mod neuman;
 pub mod people_snapshot;
@@ -36,6 +37,9 @@ pub enum Format {
     /// THuman2.0 rendered by the GHG / GPS-Gaussian protocol (`img/`, `mask/`, `parm/`, with
     /// SMPL-X parameters where present).
     Ghg,
+    /// drivestudio's processed Waymo scenes (`images/`, `extrinsics/`, `intrinsics/`,
+    /// `ego_pose/`, `instances/`, `humanpose/smpl.pkl`).
+    Drivestudio,
     /// A nerfstudio `transforms.json` folder (cameras and images only).
     Nerfstudio,
 }
@@ -110,6 +114,11 @@ pub struct BodyFrame {
     pub betas: Vec<f64>,
     pub transl: [f64; 3],
     pub world_from_smpl: Similarity,
+    /// Where the format puts the root joint in the world, for formats that give that instead
+    /// of a translation (drivestudio: the person's 3D box centre). Then `transl` is 0 and the
+    /// SMPL translation follows from the body model's root joint `J0`:
+    /// `transl = R⁻¹ (root − t) / s − J0` for `world_from_smpl = {s, R, t}`.
+    pub root_position: Option<[f64; 3]>,
     /// Further parameters by their SMPL-X names (`left_hand_pose`, `jaw_pose`, `expression`, …),
     /// as the format stores them.
     pub extra: BTreeMap<String, Vec<f64>>,
@@ -137,6 +146,21 @@ pub struct Dataset {
     pub splits: BTreeMap<String, Vec<usize>>,
     /// Sparse points with sRGB colours in [0, 1], where the format has them.
     pub points: Vec<SparsePoint>,
+    /// 3D boxes of annotated objects, where the format has them.
+    pub boxes: Vec<InstanceBox>,
+}
+
+/// One object's box in one frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InstanceBox {
+    /// The format's instance key.
+    pub instance: String,
+    pub class: String,
+    pub frame: usize,
+    /// Object to world (box centre, x along its heading, z up), rows of a rigid 4×4.
+    pub object_to_world: [[f64; 4]; 4],
+    /// Length, width, height in metres (along the object's x, y, z).
+    pub size: [f64; 3],
 }
 
 /// A decoded mask: width, height, person per pixel (row-major).
@@ -218,6 +242,8 @@ pub fn detect(root: &Path) -> Option<Format> {
         Some(Format::PeopleSnapshot)
     } else if root.join("parm").is_dir() && root.join("img").is_dir() {
         Some(Format::Ghg)
+    } else if root.join("ego_pose").is_dir() && root.join("extrinsics").is_dir() {
+        Some(Format::Drivestudio)
     } else if root.join("transforms.json").is_file() {
         Some(Format::Nerfstudio)
     } else {
@@ -233,7 +259,7 @@ pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError
             return Err(DatasetError::file(
                 root,
                 "format not recognised (NeuMan: sparse/images.txt + alignments.npy; \
-                 ZJU-MoCap: annots.npy; PeopleSnapshot: cameras.npz + poses.npz; GHG: img/ + parm/; nerfstudio: transforms.json); name it with --format",
+                 ZJU-MoCap: annots.npy; PeopleSnapshot: cameras.npz + poses.npz; GHG: img/ + parm/; drivestudio: ego_pose/ + extrinsics/; nerfstudio: transforms.json); name it with --format",
             ));
         }
     };
@@ -242,6 +268,7 @@ pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError
         Format::Zju => zju::load(root),
         Format::PeopleSnapshot => people_snapshot::load(root),
         Format::Ghg => ghg::load(root),
+        Format::Drivestudio => drivestudio::load(root),
         Format::Nerfstudio => nerfstudio(root),
     }
 }
@@ -275,6 +302,7 @@ fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
         people: Vec::new(),
         splits: BTreeMap::new(),
         points: Vec::new(),
+        boxes: Vec::new(),
     })
 }
 

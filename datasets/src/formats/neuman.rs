@@ -186,6 +186,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 translation: [a[9], a[10], a[11]],
             },
             extra: Default::default(),
+            root_position: None,
         });
     }
 
@@ -231,5 +232,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         }],
         splits,
         points,
+        boxes: Vec::new(),
     })
 }

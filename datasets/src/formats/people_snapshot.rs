@@ -159,6 +159,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 transl: [transl[f][0], transl[f][1], transl[f][2]],
                 world_from_smpl: Similarity::IDENTITY,
                 extra: Default::default(),
+                root_position: None,
             })
         })
         .collect();
@@ -189,6 +190,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                         transl: [tr[j][0], tr[j][1], tr[j][2]],
                         world_from_smpl: Similarity::IDENTITY,
                         extra: Default::default(),
+                        root_position: None,
                     });
                 }
             }
@@ -206,5 +208,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         }],
         splits,
         points: Vec::new(),
+        boxes: Vec::new(),
     })
 }

@@ -64,6 +64,7 @@ fn body_frame(file: &Path) -> Result<BodyFrame, DatasetError> {
             translation: [th[0], th[1], th[2]],
         },
         extra: Default::default(),
+        root_position: None,
     })
 }
 
@@ -209,6 +210,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         }],
         splits: Default::default(),
         points: Vec::new(),
+        boxes: Vec::new(),
     })
 }
 
