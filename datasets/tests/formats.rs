@@ -810,8 +810,8 @@ fn nerfstudio_folders_load_as_datasets() {
     }
     .build(&burn::tensor::Device::flex());
     splatzoo_datasets::synth::export::write_scene(&scene, dir.path(), &[0], |_| {}).unwrap();
-    assert_eq!(detect(dir.path()), Some(Format::Nerfstudio));
-    let d = load(dir.path(), None).unwrap();
+    assert_eq!(detect(dir.path()), Some(Format::Synthetic));
+    let d = load(dir.path(), Some(Format::Nerfstudio)).unwrap();
     assert_eq!(d.views.len(), 48);
     let report = check(&d, None);
     assert_eq!(
@@ -1030,6 +1030,16 @@ fn drivestudio_waymo_scenes_load_in_our_conventions() {
     );
     assert!(close(f0.betas[3], 0.4));
     assert!(person.frames[1].is_none());
+    // For a model whose root rests at j0, SMPL's transl puts the root on the box centre.
+    let j0 = [0.0, -0.22, 0.03];
+    let transl = f0.smpl_transl(j0);
+    let root_world = f0
+        .world_from_smpl
+        .apply(std::array::from_fn(|i| j0[i] + transl[i]));
+    assert!(
+        (0..3).all(|i| close(root_world[i], [8.0, 0.0, 0.9][i])),
+        "{root_world:?}"
+    );
     let report = check(&d, None);
     assert_eq!(
         (report.images, report.masks, report.problems.len()),
@@ -1098,4 +1108,33 @@ fn rotation_matrices_convert_to_axis_angle_everywhere() {
             }
         }
     }
+}
+
+/// The generator's export arrives in the same types, with its people's true poses.
+#[test]
+fn synthetic_exports_load_as_datasets_with_pose_tracks() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = splatzoo_datasets::synth::SceneConfig {
+        width: 24,
+        height: 24,
+        frames: Some(3),
+        ..splatzoo_datasets::synth::SceneConfig::new(splatzoo_datasets::synth::Preset::Monocular, 5)
+    };
+    let scene = config.build(&burn::tensor::Device::flex());
+    splatzoo_datasets::synth::export::write_scene(&scene, dir.path(), &[0, 1, 2], |_| {}).unwrap();
+    let d = load(dir.path(), None).unwrap();
+    assert_eq!(d.format, Format::Synthetic);
+    assert_eq!(d.frame_count, 3);
+    assert_eq!(d.people.len(), 2, "truth and prior of one person");
+    let truth = d.people.iter().find(|p| p.person == "person_00").unwrap();
+    let f2 = truth.frames[2].as_ref().unwrap();
+    let pose = scene.people[0].motion.pose(2);
+    assert!(close(f2.global_orient[1], pose[1]) && close(f2.body_pose[5], pose[8]));
+    assert!(close(
+        f2.transl[0],
+        scene.people[0].motion.translation(2)[0]
+    ));
+    let report = check(&d, None);
+    assert_eq!(report.problems.len(), 0, "{report:?}");
+    assert!(report.masks > 0);
 }

@@ -7,7 +7,8 @@
 //! ours. So far: NeuMan ([`neuman`], over a COLMAP text model, [`colmap`]), ZJU-MoCap in its
 //! original and refined layouts ([`zju`]), PeopleSnapshot in InstantAvatar's npz form
 //! ([`people_snapshot`]), THuman2.0 renders of the GHG protocol ([`ghg`]), drivestudio's
-//! processed Waymo ([`drivestudio`]) and nerfstudio folders. [`detect`] recognises a
+//! processed Waymo ([`drivestudio`]), nerfstudio folders, and the synthetic generator's own
+//! export ([`synthetic`]), so generated scenes arrive in the same types. [`detect`] recognises a
 //! folder's format; [`check`] decodes every image and mask in parallel, in bounded batches.
 
 pub mod check;
@@ -16,6 +17,7 @@ pub mod drivestudio;
 pub mod ghg;
 pub mod neuman;
 pub mod people_snapshot;
+pub mod synthetic;
 pub mod zju;
 
 use crate::DatasetError;
@@ -40,6 +42,9 @@ pub enum Format {
     /// drivestudio's processed Waymo scenes (`images/`, `extrinsics/`, `intrinsics/`,
     /// `ego_pose/`, `instances/`, `humanpose/smpl.pkl`).
     Drivestudio,
+    /// The synthetic generator's export (`synth` command): nerfstudio cameras plus masks and
+    /// pose tracks.
+    Synthetic,
     /// A nerfstudio `transforms.json` folder (cameras and images only).
     Nerfstudio,
 }
@@ -122,6 +127,21 @@ pub struct BodyFrame {
     /// Further parameters by their SMPL-X names (`left_hand_pose`, `jaw_pose`, `expression`, …),
     /// as the format stores them.
     pub extra: BTreeMap<String, Vec<f64>>,
+}
+
+impl BodyFrame {
+    /// SMPL's `transl` for a body model whose root joint rests at `j0` (for these betas): the
+    /// stored `transl`, or, where the format gives the root's world position instead, the one
+    /// that puts the root there (SMPL rotates about the root, so the root lands at
+    /// `world_from_smpl(j0 + transl)`).
+    pub fn smpl_transl(&self, j0: [f64; 3]) -> [f64; 3] {
+        let Some(root) = self.root_position else {
+            return self.transl;
+        };
+        let m = &self.world_from_smpl;
+        let d: [f64; 3] = std::array::from_fn(|i| (root[i] - m.translation[i]) / m.scale);
+        std::array::from_fn(|j| (0..3).map(|i| m.rotation[i][j] * d[i]).sum::<f64>() - j0[j])
+    }
 }
 
 /// One person's parameters over the dataset's frames; `None` where the person is not valid.
@@ -244,6 +264,8 @@ pub fn detect(root: &Path) -> Option<Format> {
         Some(Format::Ghg)
     } else if root.join("ego_pose").is_dir() && root.join("extrinsics").is_dir() {
         Some(Format::Drivestudio)
+    } else if root.join("transforms.json").is_file() && root.join("scene.json").is_file() {
+        Some(Format::Synthetic)
     } else if root.join("transforms.json").is_file() {
         Some(Format::Nerfstudio)
     } else {
@@ -269,11 +291,12 @@ pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError
         Format::PeopleSnapshot => people_snapshot::load(root),
         Format::Ghg => ghg::load(root),
         Format::Drivestudio => drivestudio::load(root),
+        Format::Synthetic => synthetic::load(root),
         Format::Nerfstudio => nerfstudio(root),
     }
 }
 
-fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
+pub(crate) fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
     let frames = crate::nerfstudio::read_transforms(&root.join("transforms.json"))?;
     let mut times: Vec<f64> = frames.iter().filter_map(|f| f.time).collect();
     times.sort_by(f64::total_cmp);
