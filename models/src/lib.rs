@@ -7,3 +7,4 @@ pub mod anchor;
 pub mod body;
 pub mod pickle;
 pub mod rotation;
+pub mod rotation_scalar;

@@ -847,9 +847,8 @@ impl Writer {
             .op(b"tb")
     }
 
-    /// Starts a 0-d numpy object array (what `np.save` of a dict pickles); write its one
-    /// element, then [`Self::end_object_scalar`].
-    pub fn begin_object_scalar(&mut self) -> &mut Self {
+    /// `_reconstruct(ndarray, (0,), b'b')`: the empty array numpy's pickles fill by BUILD.
+    fn empty_ndarray(&mut self) -> &mut Self {
         self.global("numpy.core.multiarray", "_reconstruct")
             .global("numpy", "ndarray")
             .op(b"(")
@@ -857,6 +856,12 @@ impl Writer {
             .op(b"t")
             .str("b")
             .op(&[0x87, b'R'])
+    }
+
+    /// Starts a 0-d numpy object array (what `np.save` of a dict pickles); write its one
+    /// element, then [`Self::end_object_scalar`].
+    pub fn begin_object_scalar(&mut self) -> &mut Self {
+        self.empty_ndarray()
             .op(b"(")
             .int(1)
             .op(b")")
@@ -996,15 +1001,7 @@ impl Writer {
             self.op(&[padding as u8]).op(&vec![0xff; padding]);
             return self.op(&raw);
         }
-        self.global("numpy.core.multiarray", "_reconstruct")
-            .global("numpy", "ndarray")
-            .op(b"(")
-            .int(0)
-            .op(b"t")
-            .str("b")
-            .op(&[0x87, b'R']) // (ndarray, (0,), b'b') → _reconstruct(...)
-            .op(b"(")
-            .int(1);
+        self.empty_ndarray().op(b"(").int(1);
         shape_tuple(self);
         self.dtype(code)
             .op(&[0x89]) // not Fortran order

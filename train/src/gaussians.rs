@@ -248,29 +248,7 @@ impl GaussianRows {
 
     /// The rotation matrix of row `i` (normalised quaternion; zero means identity).
     pub fn rotation(&self, i: usize) -> [[f32; 3]; 3] {
-        let q = &self.quats[4 * i..4 * i + 4];
-        let norm = q.iter().map(|v| v * v).sum::<f32>().sqrt();
-        let [w, x, y, z] = if norm > 0.0 {
-            [q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm]
-        } else {
-            [1.0, 0.0, 0.0, 0.0]
-        };
-        [
-            [
-                1.0 - 2.0 * (y * y + z * z),
-                2.0 * (x * y - w * z),
-                2.0 * (x * z + w * y),
-            ],
-            [
-                2.0 * (x * y + w * z),
-                1.0 - 2.0 * (x * x + z * z),
-                2.0 * (y * z - w * x),
-            ],
-            [
-                2.0 * (x * z - w * y),
-                2.0 * (y * z + w * x),
-                1.0 - 2.0 * (x * x + y * y),
-            ],
-        ]
+        let q: [f64; 4] = std::array::from_fn(|k| self.quats[4 * i + k] as f64);
+        splatzoo_models::rotation_scalar::quaternion_matrix(q).map(|row| row.map(|v| v as f32))
     }
 }

@@ -36,6 +36,14 @@ pub fn side_by_side(images: &[RgbImage]) -> RgbImage {
 }
 
 pub fn write_png(path: &Path, image: &RgbImage) -> Result<(), DatasetError> {
+    save_png(path, image)
+}
+
+fn save_png<P>(path: &Path, image: &ImageBuffer<P, Vec<P::Subpixel>>) -> Result<(), DatasetError>
+where
+    P: image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+{
     write_atomically(path, |tmp| {
         image
             .save_with_format(tmp, image::ImageFormat::Png)
@@ -65,11 +73,7 @@ pub fn write_depth_png(
         .collect();
     let image: ImageBuffer<Luma<u16>, Vec<u16>> =
         ImageBuffer::from_raw(w as u32, h as u32, values).expect("sized by the tensor");
-    write_atomically(path, |tmp| {
-        image
-            .save_with_format(tmp, image::ImageFormat::Png)
-            .map_err(std::io::Error::other)
-    })
+    save_png(path, &image)
 }
 
 /// `[H, W]` opacity in [0, 1] as an 8-bit greyscale PNG.
@@ -78,11 +82,7 @@ pub fn write_alpha_png(path: &Path, alpha: &Tensor<2>) -> Result<(), DatasetErro
     let bytes = host(alpha).into_iter().map(to_u8).collect();
     let image: ImageBuffer<Luma<u8>, Vec<u8>> =
         ImageBuffer::from_raw(w as u32, h as u32, bytes).expect("sized by the tensor");
-    write_atomically(path, |tmp| {
-        image
-            .save_with_format(tmp, image::ImageFormat::Png)
-            .map_err(std::io::Error::other)
-    })
+    save_png(path, &image)
 }
 
 /// An endlessly looping GIF of `frames` at `fps`.

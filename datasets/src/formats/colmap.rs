@@ -8,6 +8,7 @@
 
 use super::{Distortion, SparsePoint, camera_from};
 use crate::DatasetError;
+use splatzoo_models::rotation_scalar::quaternion_matrix;
 use splatzoo_rasterizer::Camera;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -41,29 +42,6 @@ impl Image {
             self.translation,
         )
     }
-}
-
-/// The rotation of a unit quaternion `(w, x, y, z)` (normalised here).
-pub fn quaternion_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
-    let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
-    let [w, x, y, z] = q.map(|v| v / n);
-    [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ]
 }
 
 fn read(path: &Path) -> Result<String, DatasetError> {

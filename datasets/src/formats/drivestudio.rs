@@ -31,6 +31,7 @@ use super::{
 };
 use crate::DatasetError;
 use splatzoo_models::pickle::{Value, to_array};
+pub use splatzoo_models::rotation_scalar::matrix_axis_angle;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -93,33 +94,6 @@ fn rigid(path: &Path, key: &str, m: Matrix) -> Result<Matrix, DatasetError> {
         ));
     }
     Ok(m)
-}
-
-/// Axis-angle of a rotation matrix.
-pub fn matrix_axis_angle(r: &[[f64; 3]; 3]) -> [f64; 3] {
-    let cos = ((r[0][0] + r[1][1] + r[2][2] - 1.0) / 2.0).clamp(-1.0, 1.0);
-    let angle = cos.acos();
-    let v = [r[2][1] - r[1][2], r[0][2] - r[2][0], r[1][0] - r[0][1]];
-    if angle < 1e-8 {
-        return [v[0] / 2.0, v[1] / 2.0, v[2] / 2.0];
-    }
-    if std::f64::consts::PI - angle < 1e-4 {
-        // Near π: the axis from the largest diagonal entry of (R + I) / 2.
-        let k = (0..3)
-            .max_by(|&a, &b| r[a][a].total_cmp(&r[b][b]))
-            .expect("three");
-        let mut axis = [0.0; 3];
-        axis[k] = ((r[k][k] + 1.0) / 2.0).max(0.0).sqrt();
-        for j in 0..3 {
-            if j != k {
-                axis[j] = (r[k][j] + r[j][k]) / (4.0 * axis[k]);
-            }
-        }
-        let n = axis.iter().map(|a| a * a).sum::<f64>().sqrt();
-        return axis.map(|a| a / n * angle);
-    }
-    let s = angle / (2.0 * angle.sin());
-    v.map(|c| c * s)
 }
 
 fn json(path: &Path) -> Result<serde_json::Value, DatasetError> {

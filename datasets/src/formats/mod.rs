@@ -21,6 +21,7 @@ pub mod synthetic;
 pub mod zju;
 
 use crate::DatasetError;
+pub use splatzoo_models::rotation_scalar::axis_angle_matrix;
 use splatzoo_rasterizer::Camera;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -327,22 +328,6 @@ pub(crate) fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
         points: Vec::new(),
         boxes: Vec::new(),
     })
-}
-
-/// Rotation matrix of an axis-angle vector (Rodrigues).
-pub fn axis_angle_matrix(v: [f64; 3]) -> [[f64; 3]; 3] {
-    let angle = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    if angle < 1e-12 {
-        return Similarity::IDENTITY.rotation;
-    }
-    let [x, y, z] = v.map(|c| c / angle);
-    let (s, c) = angle.sin_cos();
-    let t = 1.0 - c;
-    [
-        [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
-        [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
-        [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
-    ]
 }
 
 /// A finite array of exactly `len` values from `values`, or an error naming `file`, `key` and
