@@ -884,6 +884,13 @@ fn drivestudio_fixture(root: &Path, smpl_shape_ok: bool) {
                 255,
                 0,
             );
+            write_mask(
+                &root.join(format!("sky_masks/{t:03}_{cam}.png")),
+                32,
+                24,
+                0,
+                255,
+            );
         }
     }
     // A pedestrian 8 m ahead of the first ego pose, 0.9 m up (its box centre), in both frames.
@@ -948,6 +955,8 @@ fn drivestudio_waymo_scenes_load_in_our_conventions() {
     assert_eq!(detect(root), Some(Format::Drivestudio));
     let d = load(root, None).unwrap();
     assert_eq!((d.frame_count, d.views.len()), (2, 4));
+    assert_eq!(d.frame_times, vec![0.0, 1.0]);
+    assert!(d.views.iter().all(|v| v.other_masks.contains_key("sky")));
     let front = d
         .views
         .iter()
@@ -1125,6 +1134,8 @@ fn synthetic_exports_load_as_datasets_with_pose_tracks() {
     let d = load(dir.path(), None).unwrap();
     assert_eq!(d.format, Format::Synthetic);
     assert_eq!(d.frame_count, 3);
+    assert_eq!(d.frame_times, vec![0.0, 0.5, 1.0]);
+    assert!(d.views.iter().all(|v| v.other_masks.contains_key("coarse")));
     assert_eq!(d.people.len(), 2, "truth and prior of one person");
     let truth = d.people.iter().find(|p| p.person == "person_00").unwrap();
     let f2 = truth.frames[2].as_ref().unwrap();

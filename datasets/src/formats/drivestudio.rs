@@ -14,7 +14,8 @@
 //!   principal point is already in our `+0.5` convention.
 //! - `images/{t:03}_{cam}.jpg` (size from the file); masks `fine_dynamic_masks/human/…png`
 //!   where that folder exists, else `dynamic_masks/human/…png` (0/255, non-zero = person; box
-//!   masks of moving pedestrians and cyclists).
+//!   masks of moving pedestrians and cyclists); beside it, as further masks, `sky_masks/`, and
+//!   the `vehicle` and `all` (→ `dynamic`) dynamic masks.
 //! - `instances/instances_info.json`: per instance key `{id, class_name, frame_annotations:
 //!   {frame_idx, obj_to_world (4×4 per frame, Waymo global), box_size (l, w, h)}}`, re-centred
 //!   like the cameras; `instances/frame_instances.json`: instance keys per frame.
@@ -135,11 +136,12 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         )?;
         cameras.push((cam, multiply(&e, &OPENCV_TO_WAYMO), k));
     }
-    let human_masks = if root.join("fine_dynamic_masks").is_dir() {
-        root.join("fine_dynamic_masks/human")
+    let dynamic = if root.join("fine_dynamic_masks").is_dir() {
+        root.join("fine_dynamic_masks")
     } else {
-        root.join("dynamic_masks/human")
+        root.join("dynamic_masks")
     };
+    let human_masks = dynamic.join("human");
     let mut views = Vec::new();
     let mut camera_to_world: BTreeMap<(usize, usize), Matrix> = BTreeMap::new();
     for (cam, opencv_to_ego, k) in &cameras {
@@ -160,7 +162,17 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             let c2w = multiply(&recentre, &multiply(&ego[f], opencv_to_ego));
             camera_to_world.insert((f, cam), c2w);
             let w2c = rigid_inverse(&c2w);
-            let mask = human_masks.join(format!("{t:03}_{cam}.png"));
+            let file = format!("{t:03}_{cam}.png");
+            let mask = human_masks.join(&file);
+            let other_masks = [
+                ("sky", root.join("sky_masks")),
+                ("vehicle", dynamic.join("vehicle")),
+                ("dynamic", dynamic.join("all")),
+            ]
+            .into_iter()
+            .map(|(name, dir)| (name.to_owned(), dir.join(&file)))
+            .filter(|(_, path)| path.is_file())
+            .collect();
             views.push(ViewRecord {
                 frame: f,
                 camera_name: cam.to_string(),
@@ -180,6 +192,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 image,
                 mask: mask.is_file().then_some(mask),
                 mask_convention: MaskConvention::NonZeroIsPerson,
+                other_masks,
             });
         }
     }
@@ -194,6 +207,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
     )?;
     Ok(Dataset {
         format: Format::Drivestudio,
+        frame_times: Vec::new(),
         root: root.to_path_buf(),
         frame_count: frame_numbers.len(),
         views,

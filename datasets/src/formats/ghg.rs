@@ -197,6 +197,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 image,
                 mask: mask.is_file().then_some(mask),
                 mask_convention: MaskConvention::NonZeroIsPerson,
+                other_masks: Default::default(),
             });
         }
     }
@@ -214,6 +215,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         .collect::<Result<Vec<_>, DatasetError>>()?;
     Ok(Dataset {
         format: Format::Ghg,
+        frame_times: Vec::new(),
         root: root.to_path_buf(),
         frame_count: subjects.len(),
         views,

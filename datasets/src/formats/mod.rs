@@ -83,6 +83,9 @@ pub struct ViewRecord {
     pub image: PathBuf,
     pub mask: Option<PathBuf>,
     pub mask_convention: MaskConvention,
+    /// Further masks by name, non-zero = inside (drivestudio: `sky`, `vehicle`, `dynamic`;
+    /// synthetic: `accessory`, `coarse`).
+    pub other_masks: BTreeMap<String, PathBuf>,
 }
 
 /// `x_world = scale · R · x + t`: where a format's SMPL output lives in its world.
@@ -161,6 +164,9 @@ pub struct Dataset {
     pub format: Format,
     pub root: PathBuf,
     pub frame_count: usize,
+    /// Each frame's time, normalised to [0, 1] over the sequence (nerfstudio's `time`, or the
+    /// frame index over the last one, as drivestudio normalises its timestamps; 0 for one frame).
+    pub frame_times: Vec<f64>,
     pub views: Vec<ViewRecord>,
     pub people: Vec<PoseTrack>,
     /// Named splits of view indices (e.g. NeuMan's train/val/test files).
@@ -286,7 +292,7 @@ pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError
             ));
         }
     };
-    match format {
+    let mut dataset = match format {
         Format::Neuman => neuman::load(root),
         Format::Zju => zju::load(root),
         Format::PeopleSnapshot => people_snapshot::load(root),
@@ -294,7 +300,12 @@ pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError
         Format::Drivestudio => drivestudio::load(root),
         Format::Synthetic => synthetic::load(root),
         Format::Nerfstudio => nerfstudio(root),
+    }?;
+    if dataset.frame_times.len() != dataset.frame_count {
+        let last = dataset.frame_count.saturating_sub(1).max(1) as f64;
+        dataset.frame_times = (0..dataset.frame_count).map(|f| f as f64 / last).collect();
     }
+    Ok(dataset)
 }
 
 pub(crate) fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
@@ -316,12 +327,19 @@ pub(crate) fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
             image: root.join(&f.file_path),
             mask: f.mask_path.as_ref().map(|m| root.join(m)),
             mask_convention: MaskConvention::NonZeroIsPerson,
+            other_masks: Default::default(),
         })
         .collect::<Vec<_>>();
+    let frame_count = views.iter().map(|v| v.frame + 1).max().unwrap_or(0);
     Ok(Dataset {
         format: Format::Nerfstudio,
         root: root.to_path_buf(),
-        frame_count: views.iter().map(|v| v.frame + 1).max().unwrap_or(0),
+        frame_times: if times.len() == frame_count {
+            times
+        } else {
+            Vec::new()
+        },
+        frame_count,
         views,
         people: Vec::new(),
         splits: BTreeMap::new(),

@@ -106,6 +106,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             image: root.join("images").join(&image.name),
             mask: mask.is_file().then_some(mask),
             mask_convention: MaskConvention::ZeroIsPerson,
+            other_masks: Default::default(),
         });
     }
     let frame_count = views.iter().map(|v| v.frame + 1).max().unwrap_or(0);
@@ -223,6 +224,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
     };
     Ok(Dataset {
         format: Format::Neuman,
+        frame_times: Vec::new(),
         root: root.to_path_buf(),
         frame_count,
         views,

@@ -142,6 +142,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             image: image.clone(),
             mask: masks.get(f).cloned(),
             mask_convention: MaskConvention::NonZeroIsPerson,
+            other_masks: Default::default(),
         })
         .collect();
 
@@ -199,6 +200,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
     }
     Ok(Dataset {
         format: Format::PeopleSnapshot,
+        frame_times: Vec::new(),
         root: root.to_path_buf(),
         frame_count: n,
         views,

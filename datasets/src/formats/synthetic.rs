@@ -1,7 +1,8 @@
 //! The synthetic generator's own export (`synth` command, [`crate::synth::export`]) read back
 //! into the common types, so generated scenes and public datasets reach a method the same way:
 //! views from `transforms.json` (`images/<frame>_<track>.png`, already in our conventions),
-//! human masks `masks/human/…png` (non-zero = person), and per person the true and the
+//! human masks `masks/human/…png` (non-zero = person; accessory and coarse masks beside them),
+//! and per person the true and the
 //! perturbed pose tracks (`people/person_KK_{truth,prior}.npz`, AMASS layout: SMPL `transl`,
 //! world frame).
 
@@ -25,6 +26,12 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         let mask = root.join("masks/human").join(format!("{stem}.png"));
         view.mask = mask.is_file().then_some(mask);
         view.mask_convention = MaskConvention::NonZeroIsPerson;
+        for name in ["accessory", "coarse"] {
+            let path = root.join("masks").join(name).join(format!("{stem}.png"));
+            if path.is_file() {
+                view.other_masks.insert(name.to_owned(), path);
+            }
+        }
     }
     let people_dir = root.join("people");
     let mut files: Vec<_> = std::fs::read_dir(&people_dir)

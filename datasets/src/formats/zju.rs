@@ -190,6 +190,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 image,
                 mask,
                 mask_convention: MaskConvention::NonZeroIsPerson,
+                other_masks: Default::default(),
             });
             index = index.or_else(|| parameter_index(&rel));
         }
@@ -201,6 +202,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
     }
     Ok(Dataset {
         format: Format::Zju,
+        frame_times: Vec::new(),
         root: root.to_path_buf(),
         frame_count: frames.len(),
         views,
