@@ -5,6 +5,7 @@
 
 pub mod anchor;
 pub mod body;
+pub mod networks;
 pub mod pickle;
 pub mod rotation;
 pub mod rotation_scalar;

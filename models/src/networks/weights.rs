@@ -1,0 +1,150 @@
+//! Weights from a safetensors file with PyTorch names (torchvision's `conv1.weight`,
+//! `layer1.0.bn1.running_var`, …): every tensor read as `f32` (from F32, F16 or BF16... only F32
+//! and F64 are accepted), by name, with its shape checked against the module's parameter.
+//! Missing, surplus-but-required or misshapen tensors are errors naming the file and tensor.
+
+use burn::module::Param;
+use burn::tensor::{Device, Tensor, TensorData};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+#[derive(Debug, thiserror::Error)]
+pub enum WeightsError {
+    #[error("{file}: {problem}")]
+    File { file: String, problem: String },
+    #[error("{file}: `{name}`: {problem}")]
+    Tensor {
+        file: String,
+        name: String,
+        problem: String,
+    },
+}
+
+/// The tensors of one file, by name.
+pub struct WeightFile {
+    pub file: String,
+    pub tensors: BTreeMap<String, (Vec<usize>, Vec<f32>)>,
+    /// Names taken so far (to report what a model did not use).
+    taken: std::cell::RefCell<Vec<String>>,
+}
+
+impl WeightFile {
+    pub fn read(path: &Path) -> Result<Self, WeightsError> {
+        let file = path.display().to_string();
+        let fail = |problem: String| WeightsError::File {
+            file: file.clone(),
+            problem,
+        };
+        let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read ({e})")))?;
+        let parsed = safetensors::SafeTensors::deserialize(&bytes)
+            .map_err(|e| fail(format!("not a safetensors file ({e})")))?;
+        let mut tensors = BTreeMap::new();
+        for (name, view) in parsed.tensors() {
+            let data = view.data();
+            let values: Vec<f32> = match view.dtype() {
+                safetensors::Dtype::F32 => data
+                    .chunks_exact(4)
+                    .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                    .collect(),
+                safetensors::Dtype::F64 => data
+                    .chunks_exact(8)
+                    .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")) as f32)
+                    .collect(),
+                // torchvision's BatchNorm step counter; never a weight.
+                safetensors::Dtype::I64 if name.ends_with("num_batches_tracked") => continue,
+                other => {
+                    return Err(WeightsError::Tensor {
+                        file,
+                        name,
+                        problem: format!("dtype {other:?}, expected F32 or F64"),
+                    });
+                }
+            };
+            tensors.insert(name, (view.shape().to_vec(), values));
+        }
+        Ok(Self {
+            file,
+            tensors,
+            taken: Default::default(),
+        })
+    }
+
+    /// The tensor `name`, which must have exactly `shape`.
+    pub fn tensor<const D: usize>(
+        &self,
+        name: &str,
+        shape: [usize; D],
+        device: &Device,
+    ) -> Result<Tensor<D>, WeightsError> {
+        let err = |problem: String| WeightsError::Tensor {
+            file: self.file.clone(),
+            name: name.to_owned(),
+            problem,
+        };
+        let (found, values) = self
+            .tensors
+            .get(name)
+            .ok_or_else(|| err(format!("missing (expected shape {shape:?})")))?;
+        if found[..] != shape[..] {
+            return Err(err(format!("shape {found:?}, expected {shape:?}")));
+        }
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(err(format!("non-finite value at flat index {i}")));
+        }
+        self.taken.borrow_mut().push(name.to_owned());
+        Ok(Tensor::from_data(
+            TensorData::new(values.clone(), shape.to_vec()),
+            device,
+        ))
+    }
+
+    /// Replaces `param` by the tensor `name` of the same shape.
+    pub fn load_into<const D: usize>(
+        &self,
+        name: &str,
+        param: &mut Param<Tensor<D>>,
+    ) -> Result<(), WeightsError> {
+        let current = param.val();
+        let tensor = self.tensor(name, current.dims(), &current.device())?;
+        *param = Param::from_tensor(tensor);
+        Ok(())
+    }
+
+    /// Names present in the file that no load has taken (e.g. a classifier head `fc.*`).
+    pub fn untaken(&self) -> Vec<String> {
+        let taken = self.taken.borrow();
+        self.tensors
+            .keys()
+            .filter(|k| !taken.contains(k))
+            .cloned()
+            .collect()
+    }
+}
+
+/// Writes tensors as F32 safetensors (fixtures, exports), atomically via a sibling file.
+pub fn write_safetensors(
+    path: &Path,
+    tensors: &BTreeMap<String, (Vec<usize>, Vec<f32>)>,
+) -> std::io::Result<()> {
+    let raw: Vec<(String, Vec<usize>, Vec<u8>)> = tensors
+        .iter()
+        .map(|(n, (s, v))| {
+            (
+                n.clone(),
+                s.clone(),
+                v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+            )
+        })
+        .collect();
+    let views = raw.iter().map(|(n, s, b)| {
+        (
+            n.clone(),
+            safetensors::tensor::TensorView::new(safetensors::Dtype::F32, s.clone(), b)
+                .expect("byte length matches the shape"),
+        )
+    });
+    let bytes = safetensors::serialize(views, None).map_err(std::io::Error::other)?;
+    let tmp = path.with_extension("safetensors.partial");
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(&tmp, path)
+}
