@@ -1,0 +1,95 @@
+//! NLF-GS's shared MLP decoder: one fused feature per Gaussian in, its attributes out, each
+//! mapped to a valid range with a bounded activation (section 3.6 of NLF-GS): the offset from
+//! its anchor `max_offset · tanh`, a normalised quaternion, scales `max_scale · sigmoid` (as
+//! log-scales for the rasterizer), an opacity logit (the rasterizer applies the sigmoid) and a
+//! colour `sigmoid` in [0, 1] (as the SH DC coefficient the rasterizer takes).
+
+use burn::module::Module;
+use burn::nn::{Linear, LinearConfig};
+use burn::tensor::activation::{relu, sigmoid};
+use burn::tensor::{Device, Tensor};
+
+/// `C0` of the degree-0 spherical harmonic: colour = `C0 · dc + 0.5`.
+const SH_C0: f64 = 0.282_094_791_773_878_14;
+
+#[derive(Module, Debug)]
+pub struct Decoder {
+    layers: Vec<Linear>,
+    head: Linear,
+    max_offset: f64,
+    max_scale: f64,
+}
+
+/// What the decoder predicts for `P` Gaussians.
+#[derive(Debug, Clone)]
+pub struct Attributes {
+    /// `[P, 3]` offset from the anchor (in the anchor face's frame).
+    pub offset: Tensor<2>,
+    /// `[P, 4]` unit quaternions (w, x, y, z).
+    pub quats: Tensor<2>,
+    /// `[P, 3]` natural-log standard deviations.
+    pub log_scales: Tensor<2>,
+    /// `[P]`
+    pub opacity_logits: Tensor<1>,
+    /// `[P, 3]` colour in [0, 1].
+    pub rgb: Tensor<2>,
+}
+
+impl Attributes {
+    /// The colour as SH DC coefficients `[P, 1, 3]`.
+    pub fn sh_dc(&self) -> Tensor<3> {
+        let [p, _] = self.rgb.dims();
+        ((self.rgb.clone() - 0.5) / SH_C0).reshape([p, 1, 3])
+    }
+}
+
+impl Decoder {
+    /// `inputs` features → `hidden` wide layers (ReLU) → 14 outputs.
+    pub fn new(
+        inputs: usize,
+        hidden: &[usize],
+        max_offset: f64,
+        max_scale: f64,
+        device: &Device,
+    ) -> Self {
+        let mut layers = Vec::new();
+        let mut width = inputs;
+        for &h in hidden {
+            layers.push(LinearConfig::new(width, h).init(device));
+            width = h;
+        }
+        Self {
+            layers,
+            head: LinearConfig::new(width, 14).init(device),
+            max_offset,
+            max_scale,
+        }
+    }
+
+    pub fn forward(&self, features: Tensor<2>) -> Attributes {
+        let mut x = features;
+        for layer in &self.layers {
+            x = relu(layer.forward(x));
+        }
+        let out = self.head.forward(x);
+        let [p, _] = out.dims();
+        let part = |a: usize, b: usize| out.clone().slice([0..p, a..b]);
+        let quat = part(3, 7)
+            + Tensor::<1>::from_floats([1.0, 0.0, 0.0, 0.0], &out.device()).reshape([1, 4]);
+        let norm = quat
+            .clone()
+            .powi_scalar(2)
+            .sum_dim(1)
+            .sqrt()
+            .clamp_min(1e-8);
+        Attributes {
+            offset: part(0, 3).tanh() * self.max_offset,
+            quats: quat / norm,
+            log_scales: (sigmoid(part(7, 10)) * self.max_scale)
+                .clamp_min(1e-8)
+                .log(),
+            opacity_logits: part(10, 11).reshape([p]),
+            rgb: sigmoid(part(11, 14)),
+        }
+    }
+}
