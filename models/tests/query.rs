@@ -68,7 +68,12 @@ fn projection_and_sampling_follow_eq_2_and_3_with_pixel_centres_at_half() {
             );
         }
     }
-    let inside = proj.inside.clone().into_data().try_to_vec::<bool>().unwrap();
+    let inside = proj
+        .inside
+        .clone()
+        .into_data()
+        .try_to_vec::<bool>()
+        .unwrap();
     assert_eq!(
         &inside[..3],
         &[true, true, false],

@@ -228,3 +228,144 @@ fn ply_round_trips_and_bad_files_are_refused() {
     std::fs::write(&path, b"solid\n").unwrap();
     assert!(read_ply(&path, &device).is_err());
 }
+
+/// The intensity-and-gradient term against its f64 definition, and NLF-GS's total objective
+/// against finite differences in the image and the offsets.
+#[test]
+fn nlf_objective_matches_its_definition_and_finite_differences() {
+    use splatzoo_train::loss::intensity_gradient;
+    use splatzoo_train::nlf_loss::{NlfLossInputs, NlfLossWeights, nlf_loss};
+    let device = Device::flex();
+    let mut rng = Rng(12);
+    let (h, w) = (9, 7);
+    let a = image(&mut rng, h, w);
+    let b = image(&mut rng, h, w);
+    let luma = |v: &[f64]| -> Vec<f64> {
+        (0..h * w)
+            .map(|p| 0.2126 * v[3 * p] + 0.7152 * v[3 * p + 1] + 0.0722 * v[3 * p + 2])
+            .collect()
+    };
+    let (ya, yb) = (luma(&a), luma(&b));
+    let mean = |v: Vec<f64>| v.iter().sum::<f64>() / v.len() as f64;
+    let level = mean((0..h * w).map(|p| (ya[p] - yb[p]).abs()).collect());
+    let gx = mean(
+        (0..h)
+            .flat_map(|y| (0..w - 1).map(move |x| (y, x)))
+            .map(|(y, x)| {
+                ((ya[y * w + x + 1] - ya[y * w + x]) - (yb[y * w + x + 1] - yb[y * w + x])).abs()
+            })
+            .collect(),
+    );
+    let gy = mean(
+        (0..h - 1)
+            .flat_map(|y| (0..w).map(move |x| (y, x)))
+            .map(|(y, x)| {
+                ((ya[(y + 1) * w + x] - ya[y * w + x]) - (yb[(y + 1) * w + x] - yb[y * w + x]))
+                    .abs()
+            })
+            .collect(),
+    );
+    let got = scalar(intensity_gradient(
+        tensor(&a, h, w, &device),
+        tensor(&b, h, w, &device),
+    ));
+    assert!(
+        (got - (level + gx + gy)).abs() < 1e-5,
+        "{got} vs {}",
+        level + gx + gy
+    );
+
+    let n = 6;
+    let offsets: Vec<f64> = (0..3 * n).map(|_| rng.next() * 0.02 - 0.01).collect();
+    let weights = NlfLossWeights::default();
+    let total = |img: &[f64], off: &[f64]| -> f64 {
+        let loss = nlf_loss(
+            NlfLossInputs {
+                image: tensor(img, h, w, &device),
+                target: tensor(&b, h, w, &device),
+                alpha: Tensor::<2>::ones([h, w], &device) * 0.8,
+                mask: Tensor::<2>::ones([h, w], &device),
+                log_scales: Tensor::<2>::ones([n, 3], &device) * -4.0,
+                offsets: Tensor::from_data(
+                    TensorData::new(off.iter().map(|&v| v as f32).collect::<Vec<_>>(), [n, 3]),
+                    &device,
+                ),
+                opacity_logits: Tensor::<1>::zeros([n], &device),
+            },
+            &weights,
+        );
+        scalar(loss.total)
+    };
+    let img_leaf = tensor(&a, h, w, &device).autodiff().require_grad();
+    let off_leaf = Tensor::<2>::from_data(
+        TensorData::new(
+            offsets.iter().map(|&v| v as f32).collect::<Vec<_>>(),
+            [n, 3],
+        ),
+        &device,
+    )
+    .autodiff()
+    .require_grad();
+    let loss = nlf_loss(
+        NlfLossInputs {
+            image: img_leaf.clone(),
+            target: tensor(&b, h, w, &device).autodiff(),
+            alpha: (Tensor::<2>::ones([h, w], &device) * 0.8).autodiff(),
+            mask: Tensor::<2>::ones([h, w], &device).autodiff(),
+            log_scales: (Tensor::<2>::ones([n, 3], &device) * -4.0).autodiff(),
+            offsets: off_leaf.clone(),
+            opacity_logits: Tensor::<1>::zeros([n], &device).autodiff(),
+        },
+        &weights,
+    );
+    let grads = loss.total.backward();
+    let gi: Vec<f32> = img_leaf
+        .grad(&grads)
+        .unwrap()
+        .into_data()
+        .try_into_vec()
+        .unwrap();
+    let go: Vec<f32> = off_leaf
+        .grad(&grads)
+        .unwrap()
+        .into_data()
+        .try_into_vec()
+        .unwrap();
+    let eps = 1e-3;
+    for &k in &[0usize, 17, 50, 100, 3 * h * w - 1] {
+        let (mut p, mut m) = (a.clone(), a.clone());
+        p[k] += eps;
+        m[k] -= eps;
+        let fd = (total(&p, &offsets) - total(&m, &offsets)) / (2.0 * eps);
+        assert!(
+            (gi[k] as f64 - fd).abs() < 2e-3 + 0.05 * fd.abs(),
+            "image {k}: {} vs {fd}",
+            gi[k]
+        );
+    }
+    for k in [0usize, 7, 3 * n - 1] {
+        let (mut p, mut m) = (offsets.clone(), offsets.clone());
+        p[k] += eps;
+        m[k] -= eps;
+        let fd = (total(&a, &p) - total(&a, &m)) / (2.0 * eps);
+        assert!(
+            (go[k] as f64 - fd).abs() < 1e-5 + 0.01 * fd.abs(),
+            "offset {k}: {} vs {fd}",
+            go[k]
+        );
+    }
+    // The regulariser's prior: transparent Gaussians cost more than opaque ones.
+    let opaque = nlf_loss(
+        NlfLossInputs {
+            image: tensor(&a, h, w, &device),
+            target: tensor(&a, h, w, &device),
+            alpha: Tensor::<2>::ones([h, w], &device),
+            mask: Tensor::<2>::ones([h, w], &device),
+            log_scales: Tensor::<2>::ones([n, 3], &device) * -4.0,
+            offsets: Tensor::<2>::zeros([n, 3], &device),
+            opacity_logits: Tensor::<1>::ones([n], &device) * 5.0,
+        },
+        &weights,
+    );
+    assert!(scalar(opaque.opacity) < 0.01 && scalar(opaque.l1) == 0.0);
+}
