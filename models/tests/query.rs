@@ -4,7 +4,9 @@
 
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::networks::decoder::Decoder;
-use splatzoo_models::networks::query::{Fusion, Views, fuse, project, sample, weights};
+use splatzoo_models::networks::query::{
+    Fusion, Views, fuse, project, sample, sample_and_fuse, weights,
+};
 
 fn host<const D: usize>(t: Tensor<D>) -> Vec<f32> {
     t.into_data()
@@ -92,7 +94,22 @@ fn projection_and_sampling_follow_eq_2_and_3_with_pixel_centres_at_half() {
     }
     let map = Tensor::<4>::from_data(TensorData::new(values, [1, 2, fh, fw]), &device)
         .expand([2, 2, fh, fw]);
-    let sampled = host(sample(map, &proj, views.size));
+    let stacked = sample(map.clone(), &proj, views.size);
+    // Fusing view by view equals sampling all views, then fusing.
+    let w = Tensor::<2>::from_data(
+        TensorData::new(vec![0.3f32, 1.0, 0.0, 0.7, 0.5, 1.0], [2, 3]),
+        &device,
+    );
+    let streamed = host(sample_and_fuse(map, &proj, w.clone(), views.size));
+    let reference = host(fuse(stacked.clone(), w));
+    assert!(
+        streamed
+            .iter()
+            .zip(&reference)
+            .all(|(a, b)| (a - b).abs() < 1e-5),
+        "{streamed:?} vs {reference:?}"
+    );
+    let sampled = host(stacked);
     for v in 0..2 {
         for i in 0..2 {
             let at = (v * 3 + i) * 2;

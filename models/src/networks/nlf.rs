@@ -6,7 +6,7 @@
 
 use super::decoder::{Attributes, Decoder};
 use super::fpn::{ResNetFpn, Upsample};
-use super::query::{Fusion, Views, fuse, project, sample, weights};
+use super::query::{Fusion, Views, project, sample_and_fuse, weights};
 use super::resnet::Depth;
 use crate::anchor::{MeshAnchors, anchored_positions};
 use crate::rotation::{matrix_to_quaternion, quaternion_to_matrix};
@@ -118,7 +118,6 @@ impl NlfGs {
         // The face normal is the frame's third column.
         let normals = frames.slice([0..1, 0..g, 0..3, 2..3]).reshape([g, 3]);
         let projection = project(centres.clone(), &inputs.views);
-        let queried = sample(features, &projection, inputs.views.size);
         let w = weights(
             fusion,
             centres,
@@ -128,8 +127,9 @@ impl NlfGs {
             inputs.depth.clone(),
             tolerance,
         );
+        let fused = sample_and_fuse(features, &projection, w, inputs.views.size);
         Avatar {
-            attributes: self.decoder.forward(fuse(queried, w)),
+            attributes: self.decoder.forward(fused),
         }
     }
 }

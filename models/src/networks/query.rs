@@ -156,3 +156,47 @@ pub fn fuse(features: Tensor<3>, weights: Tensor<2>) -> Tensor<2> {
     let sum = (features * w).sum_dim(0).reshape([p, c]);
     sum / total.clamp_min(1e-6)
 }
+
+/// [`sample`] then [`fuse`] one view at a time, so that the `[V, P, C]` stack of per-view
+/// features never exists (with 56k Gaussians, 256 channels and 3 views it would take 172 MB,
+/// over lavapipe's largest buffer). Same result.
+pub fn sample_and_fuse(
+    features: Tensor<4>,
+    projection: &Projection,
+    weights: Tensor<2>,
+    size: [usize; 2],
+) -> Tensor<2> {
+    let [v, c, h, w] = features.dims();
+    let [_, p, _] = projection.pixels.dims();
+    let mut sum: Option<Tensor<2>> = None;
+    for view in 0..v {
+        let one = Projection {
+            camera: projection
+                .camera
+                .clone()
+                .slice([view..view + 1, 0..p, 0..3]),
+            pixels: projection
+                .pixels
+                .clone()
+                .slice([view..view + 1, 0..p, 0..2]),
+            inside: projection.inside.clone().slice([view..view + 1, 0..p]),
+        };
+        let q = sample(
+            features.clone().slice([view..view + 1, 0..c, 0..h, 0..w]),
+            &one,
+            size,
+        )
+        .reshape([p, c]);
+        let wv = weights
+            .clone()
+            .slice([view..view + 1, 0..p])
+            .reshape([p, 1]);
+        let term = q * wv;
+        sum = Some(match sum {
+            Some(s) => s + term,
+            None => term,
+        });
+    }
+    let total = weights.sum_dim(0).reshape([p, 1]);
+    sum.expect("at least one view") / total.clamp_min(1e-6)
+}
