@@ -143,7 +143,7 @@ fn main() {
             let mut angles = vec![0.0f32; 72];
             angles[3 * 16 + 2] = -0.6 - 0.1 * frame as f32; // left shoulder
             angles[3 * 17 + 2] = 0.6; // right shoulder
-            angles[3 * 1] = 0.3; // left hip
+            angles[3] = 0.3; // left hip (joint 1)
             let input = PoseInput::from_axis_angle(
                 Tensor::zeros([1, 10], &device),
                 Tensor::from_data(TensorData::new(angles, [1, 72]), &device),
