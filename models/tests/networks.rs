@@ -268,13 +268,16 @@ fn torchvision_resnet18_weights_load_and_match_the_f64_definition() {
         assert!(worst < 1e-4 * scale, "C{}: worst {worst} of {scale}", k + 2);
     }
     // Bad files: a missing tensor and a misshapen one are named with the expected shape.
+    let load_error = |broken: &BTreeMap<String, (Vec<usize>, Vec<f32>)>| {
+        write_safetensors(&path, broken).unwrap();
+        ResNet::new(Depth::R18, &device)
+            .load(&WeightFile::read(&path).unwrap())
+            .unwrap_err()
+            .to_string()
+    };
     let mut broken = tensors.clone();
     broken.remove("layer2.0.downsample.1.running_var");
-    write_safetensors(&path, &broken).unwrap();
-    let e = ResNet::new(Depth::R18, &device)
-        .load(&WeightFile::read(&path).unwrap())
-        .unwrap_err()
-        .to_string();
+    let e = load_error(&broken);
     assert!(
         e.contains("resnet18.safetensors")
             && e.contains("layer2.0.downsample.1.running_var")
@@ -283,11 +286,7 @@ fn torchvision_resnet18_weights_load_and_match_the_f64_definition() {
     );
     let mut broken = tensors.clone();
     broken.get_mut("layer1.1.conv2.weight").unwrap().0 = vec![64, 64, 1, 9];
-    write_safetensors(&path, &broken).unwrap();
-    let e = ResNet::new(Depth::R18, &device)
-        .load(&WeightFile::read(&path).unwrap())
-        .unwrap_err()
-        .to_string();
+    let e = load_error(&broken);
     assert!(
         e.contains("layer1.1.conv2.weight")
             && e.contains("[64, 64, 1, 9]")
