@@ -1,7 +1,8 @@
 //! Training machinery shared by every `train-<method>` binary: Gaussian parameter sets and
 //! their initialisation ([`gaussians`]), Adam ([`adam`]) and the 3DGS per-group optimiser
 //! ([`optimizer`]), density control ([`densify`]), image losses and metrics ([`loss`],
-//! [`lpips`]), NLF-GS's objective ([`nlf_loss`]), scene graphs ([`scene_graph`]), training data for static scenes ([`views`]), the
+//! [`lpips`]), NLF-GS's objective, data and baseline
+//! ([`nlf_loss`], [`nlf_data`], [`nlf_baseline`]), scene graphs ([`scene_graph`]), training data for static scenes ([`views`]), the
 //! static-scene loop ([`static_scene`]), checkpoints ([`checkpoint`]), configuration files
 //! ([`config`]), backends ([`backend`]), run directories ([`run_dir`]), image outputs
 //! ([`images`]) and INRIA-layout `.ply` files ([`ply`]).
@@ -15,6 +16,8 @@ pub mod gaussians;
 pub mod images;
 pub mod loss;
 pub mod lpips;
+pub mod nlf_baseline;
+pub mod nlf_data;
 pub mod nlf_loss;
 pub mod optimizer;
 pub mod ply;

@@ -357,3 +357,53 @@ fn render_writes_colour_depth_alpha_and_a_turntable() {
         text(&none)
     );
 }
+
+#[test]
+fn train_nlf_runs_end_to_end_with_its_baselines() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_train-nlf"))
+        .args([
+            "--name",
+            "smoke",
+            "--set",
+            "iterations=2",
+            "--set",
+            "eval_every=2",
+        ])
+        .args([
+            "--set",
+            "train_subjects=1",
+            "--set",
+            "test_subjects=1",
+            "--set",
+            "size=32",
+        ])
+        .args([
+            "--set",
+            "network.gaussians_per_face=1",
+            "--set",
+            "network.fpn_channels=8",
+        ])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", text(&run));
+    let out = dir.path().join("runs/nlf/smoke");
+    let metrics = json(&out.join("metrics.json"));
+    for key in ["mean_colour", "untrained"] {
+        let p = metrics["baselines"][key]["psnr"].as_f64().unwrap();
+        assert!(p.is_finite() && p > 5.0, "{key}: {p}");
+    }
+    assert!(metrics["final"]["psnr"].as_f64().unwrap().is_finite());
+    assert!(out.join("config.toml").exists() && out.join("renders").is_dir());
+    let bad = Command::new(env!("CARGO_BIN_EXE_train-nlf"))
+        .args(["--set", "network.fusion=\"median\""])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        !bad.status.success() && text(&bad).contains("fusion"),
+        "{}",
+        text(&bad)
+    );
+}
