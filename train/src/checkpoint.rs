@@ -4,7 +4,8 @@
 //! Values are stored bit for bit, which is what lets `--resume` continue exactly.
 
 use burn::tensor::{Device, Tensor, TensorData};
-use std::collections::{BTreeMap, HashMap};
+use splatzoo_models::networks::weights::{decode, encode};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
@@ -98,64 +99,35 @@ impl Checkpoint {
 
     /// Writes the safetensors file atomically.
     pub fn write(&self, path: &Path) -> Result<(), CheckpointError> {
-        let bytes: Vec<(String, Vec<usize>, Vec<u8>)> = self
-            .tensors
-            .iter()
-            .map(|(name, (shape, values))| {
-                let raw = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-                (name.clone(), shape.clone(), raw)
-            })
-            .collect();
-        let views = bytes.iter().map(|(name, shape, raw)| {
-            let view =
-                safetensors::tensor::TensorView::new(safetensors::Dtype::F32, shape.clone(), raw)
-                    .expect("byte length matches the shape");
-            (name.clone(), view)
-        });
-        let metadata: HashMap<String, String> = self.metadata.clone().into_iter().collect();
         let file_error = |problem: String| CheckpointError::File {
             file: path.display().to_string(),
             problem,
         };
-        let buffer = safetensors::serialize(views, Some(metadata))
-            .map_err(|e| file_error(format!("cannot serialise ({e})")))?;
+        let buffer = encode(&self.tensors, &self.metadata).map_err(file_error)?;
         splatzoo_datasets::files::write_bytes(path, &buffer).map_err(|e| file_error(e.to_string()))
     }
 
     pub fn read(path: &Path) -> Result<Self, CheckpointError> {
-        let file_error = |problem: String| CheckpointError::File {
-            file: path.display().to_string(),
-            problem,
-        };
-        let bytes = std::fs::read(path).map_err(|e| file_error(format!("cannot read ({e})")))?;
-        let (_, header) = safetensors::SafeTensors::read_metadata(&bytes)
-            .map_err(|e| file_error(format!("not a safetensors file ({e})")))?;
-        let parsed = safetensors::SafeTensors::deserialize(&bytes)
-            .map_err(|e| file_error(format!("not a safetensors file ({e})")))?;
-        let mut checkpoint = Checkpoint {
-            origin: path.display().to_string(),
-            metadata: header
-                .metadata()
-                .clone()
-                .unwrap_or_default()
-                .into_iter()
-                .collect(),
-            ..Default::default()
-        };
-        for (name, view) in parsed.tensors() {
-            if view.dtype() != safetensors::Dtype::F32 {
-                return Err(checkpoint
-                    .entry_error(&name, format!("dtype {:?}, expected F32", view.dtype())));
-            }
-            let values = view
-                .data()
-                .chunks_exact(4)
-                .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-                .collect();
-            checkpoint
-                .tensors
-                .insert(name, (view.shape().to_vec(), values));
-        }
-        Ok(checkpoint)
+        let origin = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|e| CheckpointError::File {
+            file: origin.clone(),
+            problem: format!("cannot read ({e})"),
+        })?;
+        let (tensors, metadata) = decode(&bytes).map_err(|(name, problem)| match name {
+            Some(name) => CheckpointError::Entry {
+                file: origin.clone(),
+                name,
+                problem,
+            },
+            None => CheckpointError::File {
+                file: origin.clone(),
+                problem,
+            },
+        })?;
+        Ok(Checkpoint {
+            origin,
+            tensors,
+            metadata,
+        })
     }
 }

@@ -1,7 +1,8 @@
-//! Weights from a safetensors file with PyTorch names (torchvision's `conv1.weight`,
-//! `layer1.0.bn1.running_var`, …): every tensor read as `f32` (from F32, F16 or BF16... only F32
-//! and F64 are accepted), by name, with its shape checked against the module's parameter.
-//! Missing, surplus-but-required or misshapen tensors are errors naming the file and tensor.
+//! safetensors files of named tensors: [`decode`] and [`encode`] (shared with the trainer's
+//! checkpoints), and [`WeightFile`], weights with PyTorch names (torchvision's `conv1.weight`,
+//! `layer1.0.bn1.running_var`, …) read as `f32` (from F32 or F64), taken by name with their
+//! shapes checked against a module's parameters. Missing or misshapen tensors are errors naming
+//! the file and tensor.
 
 use burn::module::Param;
 use burn::tensor::{Device, Tensor, TensorData};
@@ -23,7 +24,7 @@ pub enum WeightsError {
 /// The tensors of one file, by name.
 pub struct WeightFile {
     pub file: String,
-    pub tensors: BTreeMap<String, (Vec<usize>, Vec<f32>)>,
+    pub tensors: Tensors,
     /// Names taken so far (to report what a model did not use).
     taken: std::cell::RefCell<Vec<String>>,
 }
@@ -31,37 +32,21 @@ pub struct WeightFile {
 impl WeightFile {
     pub fn read(path: &Path) -> Result<Self, WeightsError> {
         let file = path.display().to_string();
-        let fail = |problem: String| WeightsError::File {
+        let bytes = std::fs::read(path).map_err(|e| WeightsError::File {
             file: file.clone(),
-            problem,
-        };
-        let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read ({e})")))?;
-        let parsed = safetensors::SafeTensors::deserialize(&bytes)
-            .map_err(|e| fail(format!("not a safetensors file ({e})")))?;
-        let mut tensors = BTreeMap::new();
-        for (name, view) in parsed.tensors() {
-            let data = view.data();
-            let values: Vec<f32> = match view.dtype() {
-                safetensors::Dtype::F32 => data
-                    .chunks_exact(4)
-                    .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-                    .collect(),
-                safetensors::Dtype::F64 => data
-                    .chunks_exact(8)
-                    .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")) as f32)
-                    .collect(),
-                // torchvision's BatchNorm step counter; never a weight.
-                safetensors::Dtype::I64 if name.ends_with("num_batches_tracked") => continue,
-                other => {
-                    return Err(WeightsError::Tensor {
-                        file,
-                        name,
-                        problem: format!("dtype {other:?}, expected F32 or F64"),
-                    });
-                }
-            };
-            tensors.insert(name, (view.shape().to_vec(), values));
-        }
+            problem: format!("cannot read ({e})"),
+        })?;
+        let (tensors, _) = decode(&bytes).map_err(|(name, problem)| match name {
+            Some(name) => WeightsError::Tensor {
+                file: file.clone(),
+                name,
+                problem,
+            },
+            None => WeightsError::File {
+                file: file.clone(),
+                problem,
+            },
+        })?;
         Ok(Self {
             file,
             tensors,
@@ -121,11 +106,48 @@ impl WeightFile {
     }
 }
 
-/// Writes tensors as F32 safetensors (fixtures, exports), atomically via a sibling file.
-pub fn write_safetensors(
-    path: &Path,
-    tensors: &BTreeMap<String, (Vec<usize>, Vec<f32>)>,
-) -> std::io::Result<()> {
+/// Named tensors: shape and `f32` values.
+pub type Tensors = BTreeMap<String, (Vec<usize>, Vec<f32>)>;
+
+/// Parses a safetensors file: F32 and F64 tensors as `f32` (torchvision's integer
+/// `num_batches_tracked` counters are skipped), and the metadata. An error carries the tensor's
+/// name where one is at fault.
+#[allow(clippy::type_complexity)]
+pub fn decode(
+    bytes: &[u8],
+) -> Result<(Tensors, BTreeMap<String, String>), (Option<String>, String)> {
+    let (_, header) = safetensors::SafeTensors::read_metadata(bytes)
+        .map_err(|e| (None, format!("not a safetensors file ({e})")))?;
+    let parsed = safetensors::SafeTensors::deserialize(bytes)
+        .map_err(|e| (None, format!("not a safetensors file ({e})")))?;
+    let mut tensors = BTreeMap::new();
+    for (name, view) in parsed.tensors() {
+        let data = view.data();
+        let values: Vec<f32> = match view.dtype() {
+            safetensors::Dtype::F32 => data
+                .chunks_exact(4)
+                .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                .collect(),
+            safetensors::Dtype::F64 => data
+                .chunks_exact(8)
+                .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")) as f32)
+                .collect(),
+            safetensors::Dtype::I64 if name.ends_with("num_batches_tracked") => continue,
+            other => return Err((Some(name), format!("dtype {other:?}, expected F32 or F64"))),
+        };
+        tensors.insert(name, (view.shape().to_vec(), values));
+    }
+    let metadata = header
+        .metadata()
+        .clone()
+        .unwrap_or_default()
+        .into_iter()
+        .collect();
+    Ok((tensors, metadata))
+}
+
+/// The safetensors bytes of `tensors` (as F32) with `metadata`.
+pub fn encode(tensors: &Tensors, metadata: &BTreeMap<String, String>) -> Result<Vec<u8>, String> {
     let raw: Vec<(String, Vec<usize>, Vec<u8>)> = tensors
         .iter()
         .map(|(n, (s, v))| {
@@ -143,7 +165,14 @@ pub fn write_safetensors(
                 .expect("byte length matches the shape"),
         )
     });
-    let bytes = safetensors::serialize(views, None).map_err(std::io::Error::other)?;
+    let metadata = (!metadata.is_empty()).then(|| metadata.clone().into_iter().collect());
+    safetensors::serialize(views, metadata).map_err(|e| format!("cannot serialise ({e})"))
+}
+
+/// Writes tensors as an F32 safetensors file (fixtures, exports), via a sibling file renamed
+/// into place.
+pub fn write_safetensors(path: &Path, tensors: &Tensors) -> std::io::Result<()> {
+    let bytes = encode(tensors, &BTreeMap::new()).map_err(std::io::Error::other)?;
     let tmp = path.with_extension("safetensors.partial");
     std::fs::write(&tmp, bytes)?;
     std::fs::rename(&tmp, path)
