@@ -183,3 +183,68 @@ impl burn::module::ModuleVisitor for Count<'_> {
         }
     }
 }
+
+/// A network saved by path and loaded into a freshly initialised one generates the same avatar;
+/// a file from another architecture is refused, naming the tensor.
+#[test]
+fn networks_save_and_load_by_parameter_path() {
+    use splatzoo_models::networks::weights::{
+        WeightFile, load_module, module_tensors, write_safetensors,
+    };
+    let device = Device::flex();
+    let config = NlfConfig {
+        fpn_channels: 8,
+        hidden: vec![16],
+        ..Default::default()
+    };
+    let model = NlfGs::new(&config, &device);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("nlf.safetensors");
+    let tensors = module_tensors(&model);
+    assert!(
+        tensors.contains_key("decoder.head.weight"),
+        "{:?}",
+        tensors.keys().take(5).collect::<Vec<_>>()
+    );
+    write_safetensors(&path, &tensors).unwrap();
+    let loaded = load_module(
+        NlfGs::new(&config, &device),
+        &WeightFile::read(&path).unwrap(),
+    )
+    .unwrap();
+    let (v, faces) = octahedron();
+    let anchors = MeshAnchors::per_face(faces.len() / 3, config.gaussians_per_face);
+    let vertices = Tensor::<3>::from_data(TensorData::new(v, [1, 6, 3]), &device);
+    let (views, centres) = ring(&device);
+    let pixels: Vec<f32> = (0..3 * 3 * 32 * 32)
+        .map(|i| ((i * 13) % 97) as f32 / 96.0)
+        .collect();
+    let inputs = NlfInputs {
+        images: Tensor::from_data(TensorData::new(pixels, [3, 3, 32, 32]), &device),
+        views,
+        camera_centres: centres,
+        vertices,
+        faces: &faces,
+        anchors: &anchors,
+        depth: None,
+    };
+    let a = model.generate(&inputs, Fusion::Full, 0.02).attributes;
+    let b = loaded.generate(&inputs, Fusion::Full, 0.02).attributes;
+    assert_eq!(host(a.rgb), host(b.rgb));
+    assert_eq!(host(a.offset), host(b.offset));
+    let other = NlfConfig {
+        fpn_channels: 16,
+        ..config
+    };
+    let e = load_module(
+        NlfGs::new(&other, &device),
+        &WeightFile::read(&path).unwrap(),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(
+        e.contains("nlf.safetensors") && e.contains("encoder.") && e.contains("expected"),
+        "{e}"
+    );
+}

@@ -34,6 +34,10 @@ pub struct NlfSubject {
     pub input_depth: Tensor<3>,
     /// sRGB background.
     pub background: [f32; 3],
+    /// The identity's shape coefficients (for posing the same body anew).
+    pub betas: Vec<f64>,
+    /// The body's `trans` in this frame.
+    pub translation: [f64; 3],
 }
 
 /// `camera` turned by `angle` about the vertical axis through the origin.
@@ -105,6 +109,8 @@ impl NlfSubject {
             vertices: Tensor::from_data(TensorData::new(vertices, [1, n, 3]), device),
             input_depth: Tensor::from_data(TensorData::new(depth, [3, s, s]), device),
             background: scene.environment.background.map(linear_to_srgb),
+            betas: scene.people[0].motion.frame_betas(0).to_vec(),
+            translation: scene.people[0].motion.translation(0),
         }
     }
 

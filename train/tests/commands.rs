@@ -396,6 +396,28 @@ fn train_nlf_runs_end_to_end_with_its_baselines() {
     }
     assert!(metrics["final"]["psnr"].as_f64().unwrap().is_finite());
     assert!(out.join("config.toml").exists() && out.join("renders").is_dir());
+    // The checkpoint drives an avatar through a walk: PNG frames and a GIF, frames differ.
+    let drive = Command::new(env!("CARGO_BIN_EXE_drive-nlf"))
+        .args([
+            "--checkpoint",
+            out.join("checkpoint.safetensors").to_str().unwrap(),
+        ])
+        .args(["--frames", "4", "--size", "32", "--out", "drive"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(drive.status.success(), "{}", text(&drive));
+    let frames = dir.path().join("drive");
+    assert!(frames.join("drive.gif").exists());
+    let first = std::fs::read(frames.join("frame_0000.png")).unwrap();
+    let last = std::fs::read(frames.join("frame_0003.png")).unwrap();
+    assert_ne!(first, last, "the walk moves the avatar");
+    let missing = Command::new(env!("CARGO_BIN_EXE_drive-nlf"))
+        .args(["--checkpoint", "nowhere.safetensors"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(!missing.status.success() && text(&missing).contains("nowhere.safetensors"));
     let bad = Command::new(env!("CARGO_BIN_EXE_train-nlf"))
         .args(["--set", "network.fusion=\"median\""])
         .current_dir(dir.path())

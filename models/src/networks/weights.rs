@@ -177,3 +177,80 @@ pub fn write_safetensors(path: &Path, tensors: &Tensors) -> std::io::Result<()> 
     std::fs::write(&tmp, bytes)?;
     std::fs::rename(&tmp, path)
 }
+
+/// Every float parameter of `module` under its dotted field path (`encoder.lateral.0.weight`),
+/// as Burn's derive names the fields.
+pub fn module_tensors<M: burn::module::Module>(module: &M) -> Tensors {
+    struct Collect {
+        path: Vec<String>,
+        out: Tensors,
+    }
+    impl burn::module::ModuleVisitor for Collect {
+        fn enter_module(&mut self, name: &str, _: &str) {
+            self.path.push(name.to_owned());
+        }
+        fn exit_module(&mut self, _: &str, _: &str) {
+            self.path.pop();
+        }
+        fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+            let t = param.val();
+            let values = t
+                .to_data()
+                .convert::<f32>()
+                .try_into_vec::<f32>()
+                .expect("converted to f32");
+            self.out
+                .insert(self.path.join("."), (t.dims().to_vec(), values));
+        }
+    }
+    let mut c = Collect {
+        path: Vec::new(),
+        out: BTreeMap::new(),
+    };
+    module.visit(&mut c);
+    c.out
+}
+
+/// `module` with every float parameter replaced by the tensor of the same path in `file`
+/// (written by [`module_tensors`]); the first missing or misshapen one is the error.
+pub fn load_module<M: burn::module::Module>(
+    module: M,
+    file: &WeightFile,
+) -> Result<M, WeightsError> {
+    struct Load<'a> {
+        path: Vec<String>,
+        file: &'a WeightFile,
+        error: Option<WeightsError>,
+    }
+    impl burn::module::ModuleMapper for Load<'_> {
+        fn enter_module(&mut self, name: &str, _: &str) {
+            self.path.push(name.to_owned());
+        }
+        fn exit_module(&mut self, _: &str, _: &str) {
+            self.path.pop();
+        }
+        fn map_float<const D: usize>(&mut self, param: Param<Tensor<D>>) -> Param<Tensor<D>> {
+            let current = param.val();
+            match self
+                .file
+                .tensor(&self.path.join("."), current.dims(), &current.device())
+            {
+                Ok(t) => Param::initialized(param.id, t),
+                Err(e) => {
+                    self.error.get_or_insert(e);
+                    param
+                }
+            }
+        }
+    }
+    let mut l = Load {
+        path: Vec::new(),
+        file,
+        error: None,
+    };
+    let module = module.map(&mut l);
+    match l.error {
+        Some(e) => Err(e),
+        None => Ok(module),
+    }
+}

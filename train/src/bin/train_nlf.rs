@@ -2,14 +2,15 @@
 //! six-camera ring; inputs at 0°, 120°, 240°), evaluated zero-shot on held-out identities at 60°,
 //! 180°, 300° against two baselines: the untrained network and each Gaussian taking the mean
 //! colour of its projections. Writes `runs/nlf/<name>/` with `config.toml`, `metrics.json`,
-//! `log.txt` and held-out renders (render | truth).
+//! `log.txt`, held-out renders (render | truth) and `checkpoint.safetensors` (the network by
+//! parameter path, its configuration as metadata; `drive-nlf` reads it).
 //!
 //! ```sh
 //! cargo run --release --bin train-nlf
 //! cargo run --release --bin train-nlf -- --set iterations=50 --set network.depth=\"50\"
 //! ```
 //!
-//! Not yet: LPIPS in the metrics, checkpoints of the network, ONNX export.
+//! Not yet: LPIPS in the metrics, resuming, ONNX export.
 
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams};
@@ -304,6 +305,16 @@ fn run(args: Args) -> Result<(), String> {
         "seconds": start.elapsed().as_secs_f64(),
     });
     run.write_json("metrics.json", &metrics)
+        .map_err(|e| e.to_string())?;
+    let mut checkpoint = splatzoo_train::checkpoint::Checkpoint {
+        tensors: splatzoo_models::networks::weights::module_tensors(&trainable.valid()),
+        ..Default::default()
+    };
+    checkpoint.put_meta("format", "splatzoo-nlf-1");
+    checkpoint.put_meta("network", config::to_toml(&cfg.network));
+    checkpoint.put_meta("step", cfg.iterations);
+    checkpoint
+        .write(&run.file("checkpoint.safetensors"))
         .map_err(|e| e.to_string())?;
     let path = run.path.display().to_string();
     say(
