@@ -15,7 +15,7 @@ use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
 use splatzoo_models::networks::nlf::{NlfConfig, NlfGs, NlfInputs};
 use splatzoo_models::networks::query::Views;
 use splatzoo_models::networks::resnet::Depth;
-use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Splats, rasterize};
+use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, rasterize};
 use splatzoo_train::backend::Backend;
 use std::time::Instant;
 
@@ -150,13 +150,7 @@ fn main() {
                 Tensor::zeros([1, 3], &device),
             );
             let posed = avatar.drive(pose(&tensors, &input).vertices, &faces, &anchors);
-            let splats = Splats {
-                means: posed.means,
-                quats: posed.quats,
-                log_scales: posed.log_scales,
-                opacity_logits: posed.opacity_logits,
-                colors: posed.sh_dc,
-            };
+            let splats = splatzoo_train::nlf_data::posed_splats(posed);
             let render = rasterize(
                 &splats,
                 background.clone(),

@@ -141,3 +141,16 @@ impl NlfSubject {
         )
     }
 }
+
+/// A posed avatar as the rasterizer's splats (degree-0 SH colour).
+pub fn posed_splats(
+    p: splatzoo_models::networks::nlf::PosedGaussians,
+) -> splatzoo_rasterizer::Splats {
+    splatzoo_rasterizer::Splats {
+        means: p.means,
+        quats: p.quats,
+        log_scales: p.log_scales,
+        opacity_logits: p.opacity_logits,
+        colors: p.sh_dc,
+    }
+}

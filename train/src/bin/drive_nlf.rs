@@ -15,7 +15,7 @@ use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
 use splatzoo_models::networks::nlf::{NlfConfig, NlfGs, NlfInputs};
 use splatzoo_models::networks::weights::{WeightFile, load_module};
-use splatzoo_rasterizer::{ColorMode, RasterSettings, Splats, rasterize};
+use splatzoo_rasterizer::{ColorMode, RasterSettings, rasterize};
 use splatzoo_train::backend::Backend;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::images::{srgb_image, write_gif, write_png};
@@ -135,13 +135,7 @@ fn run(args: Args) -> Result<(), String> {
             Tensor::from_data(TensorData::new(trans.to_vec(), [1, 3]), &device),
         );
         let posed = avatar.drive(pose(&tensors, &input).vertices, &faces, &anchors);
-        let splats = Splats {
-            means: posed.means,
-            quats: posed.quats,
-            log_scales: posed.log_scales,
-            opacity_logits: posed.opacity_logits,
-            colors: posed.sh_dc,
-        };
+        let splats = splatzoo_train::nlf_data::posed_splats(posed);
         let render = rasterize(
             &splats,
             background.clone(),

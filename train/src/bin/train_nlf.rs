@@ -20,13 +20,13 @@ use serde::{Deserialize, Serialize};
 use splatzoo_models::anchor::MeshAnchors;
 use splatzoo_models::body::builtin_body;
 use splatzoo_models::networks::nlf::{NlfConfig, NlfGs, NlfInputs, PosedGaussians};
-use splatzoo_rasterizer::{ColorMode, RasterSettings, Render, Splats, rasterize};
+use splatzoo_rasterizer::{ColorMode, RasterSettings, Render, rasterize};
 use splatzoo_train::backend::Backend;
 use splatzoo_train::config;
 use splatzoo_train::images::{side_by_side, srgb_image, write_png};
 use splatzoo_train::loss::{psnr, scalar, ssim};
 use splatzoo_train::nlf_baseline::mean_colour_avatar;
-use splatzoo_train::nlf_data::NlfSubject;
+use splatzoo_train::nlf_data::{NlfSubject, posed_splats};
 use splatzoo_train::nlf_loss::{NlfLossInputs, NlfLossWeights, nlf_loss};
 use splatzoo_train::run_dir::RunDir;
 use std::path::PathBuf;
@@ -80,16 +80,6 @@ struct Args {
     runs: PathBuf,
 }
 
-fn splats(p: PosedGaussians) -> Splats {
-    Splats {
-        means: p.means,
-        quats: p.quats,
-        log_scales: p.log_scales,
-        opacity_logits: p.opacity_logits,
-        colors: p.sh_dc,
-    }
-}
-
 struct Scores {
     psnr: f64,
     ssim: f64,
@@ -103,7 +93,7 @@ fn evaluate(
 ) -> Result<Scores, String> {
     let (mut p, mut s, mut n) = (0.0, 0.0, 0.0);
     for (i, subject) in subjects.iter().enumerate() {
-        let splats = splats(avatar_of(subject));
+        let splats = posed_splats(avatar_of(subject));
         let device = subject.vertices.device();
         let background = Tensor::<1>::from_floats(subject.background.as_slice(), &device);
         for (k, view) in subject.targets.iter().enumerate() {
@@ -230,7 +220,7 @@ fn run(args: Args) -> Result<(), String> {
         let avatar =
             trainable.generate(&inputs, cfg.network.fusion, cfg.network.occlusion_tolerance);
         let posed = avatar.drive(subject.vertices.clone().autodiff(), &faces, &anchors);
-        let splat_set = splats(posed);
+        let splat_set = posed_splats(posed);
         let background =
             Tensor::<1>::from_floats(subject.background.as_slice(), &device).autodiff();
         let mut total: Option<Tensor<1>> = None;
