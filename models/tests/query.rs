@@ -3,9 +3,10 @@
 //! finite differences; and the decoder's bounds at extreme inputs.
 
 use burn::tensor::{Device, Tensor, TensorData};
+use rand::{Rng, SeedableRng, rngs::StdRng};
 use splatzoo_models::networks::decoder::Decoder;
 use splatzoo_models::networks::query::{
-    Fusion, Views, fuse, project, sample, sample_and_fuse, weights,
+    Fusion, Projection, Views, fuse, project, sample, sample_and_fuse, sample_by_grid, weights,
 };
 
 fn host<const D: usize>(t: Tensor<D>) -> Vec<f32> {
@@ -287,5 +288,84 @@ fn the_decoder_stays_bounded_at_extreme_inputs() {
             host(a.opacity_logits).iter().all(|v| !v.is_nan()),
             "{scale}"
         );
+    }
+}
+
+/// The indexed bilinear sampling against `grid_sample_2d` on fresh random maps and points,
+/// including points on the image border, just outside it, and far away: values, gradients with
+/// respect to the maps, and gradients with respect to the pixel positions.
+#[test]
+fn indexed_sampling_matches_grid_sampling() {
+    let device = Device::flex();
+    let seed = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64;
+    println!("seed {seed}");
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut normal = move || -> f32 {
+        // Sum of uniforms: close enough to normal for test data.
+        (0..6).map(|_| rng.random::<f32>()).sum::<f32>() - 3.0
+    };
+    let mut rng2 = StdRng::seed_from_u64(seed ^ 0x9e37);
+    for (v, c, h, w, size) in [(2, 3, 6, 8, [32, 24]), (1, 5, 7, 5, [21, 28])] {
+        let maps: Vec<f32> = (0..v * c * h * w).map(|_| normal()).collect();
+        let mut pixels = Vec::new();
+        for _ in 0..v {
+            for i in 0..40 {
+                let (u, y) = match i {
+                    0 => (0.0, 0.0),
+                    1 => (size[0] as f64, size[1] as f64),
+                    2 => (-0.3, 5.0),
+                    3 => (size[0] as f64 + 0.2, 3.0),
+                    4 => (-1e4, 1e4),
+                    _ => (
+                        rng2.random_range(-2.0..size[0] as f64 + 2.0),
+                        rng2.random_range(-2.0..size[1] as f64 + 2.0),
+                    ),
+                };
+                pixels.extend([u as f32, y as f32]);
+            }
+        }
+        let map = Tensor::<4>::from_data(TensorData::new(maps, [v, c, h, w]), &device);
+        let at = Tensor::<3>::from_data(TensorData::new(pixels, [v, 40, 2]), &device);
+        let weights: Vec<f32> = (0..v * 40 * c).map(|_| normal()).collect();
+        let weights = Tensor::<3>::from_data(TensorData::new(weights, [v, 40, c]), &device);
+        let run = |by_grid: bool| {
+            let map = map.clone().autodiff().require_grad();
+            let at = at.clone().autodiff().require_grad();
+            let projection = Projection {
+                camera: Tensor::zeros([v, 40, 3], &device).autodiff(),
+                pixels: at.clone(),
+                inside: Tensor::<2>::zeros([v, 40], &device).greater_elem(1.0),
+            };
+            let out = if by_grid {
+                sample_by_grid(map.clone(), &projection, size)
+            } else {
+                sample(map.clone(), &projection, size)
+            };
+            let grads = (out.clone() * weights.clone().autodiff()).sum().backward();
+            (
+                host(out.inner()),
+                host(map.grad(&grads).unwrap()),
+                at.grad(&grads).map(host),
+            )
+        };
+        let (fast, fast_map, fast_at) = run(false);
+        let (reference, reference_map, reference_at) = run(true);
+        let close = |a: &[f32], b: &[f32], what: &str| {
+            for (i, (x, y)) in a.iter().zip(b).enumerate() {
+                assert!(
+                    (x - y).abs() < 1e-4 * (1.0 + y.abs()),
+                    "{what}[{i}]: {x} vs {y}"
+                );
+            }
+        };
+        close(&fast, &reference, "values");
+        close(&fast_map, &reference_map, "map gradient");
+        // Burn's grid sampling may not differentiate through the grid; where it does, agree.
+        if let (Some(a), Some(b)) = (fast_at, reference_at) {
+            close(&a, &b, "position gradient");
+        }
     }
 }

@@ -1,6 +1,6 @@
 //! NLF-GS's template-guided feature query and cross-view fusion, batched over views:
 //! Gaussian centres are projected into every view (Eq. 2 of NLF-GS), features are read there by
-//! bilinear grid sampling (Eq. 3), and the per-view features are averaged with geometry-aware
+//! bilinear sampling (Eq. 3), and the per-view features are averaged with geometry-aware
 //! weights (Eq. 4): orientation `max(0, n · d_v)` times a binary occlusion test against a depth
 //! map of the posed body, in the four variants of its Table 6.
 //!
@@ -9,7 +9,7 @@
 //! (`align_corners = false`) whatever the feature map's resolution.
 
 use burn::tensor::ops::{GridSampleOptions, InterpolateMode};
-use burn::tensor::{Bool, Tensor};
+use burn::tensor::{Bool, Tensor, TensorData};
 
 /// The four fusion variants of Table 6 of NLF-GS.
 #[derive(
@@ -81,8 +81,71 @@ pub fn project(points: Tensor<2>, views: &Views) -> Projection {
 }
 
 /// Eq. 3 of NLF-GS: bilinear samples of `[V, C, h, w]` feature maps at the projected pixels →
-/// `[V, P, C]` (zero outside the image).
+/// `[V, P, C]` (zero outside the image). Reads the four neighbouring feature rows by index
+/// (`select`): on Flex, for 56k points, 256 channels and 3 views, 0.38 s forward and 0.67 s
+/// backward against `grid_sample_2d`'s 2.9 s and 3.1 s. [`sample_by_grid`] is the reference it
+/// is tested against.
 pub fn sample(features: Tensor<4>, projection: &Projection, size: [usize; 2]) -> Tensor<3> {
+    let [v, c, h, w] = features.dims();
+    let [_, p, _] = projection.pixels.dims();
+    let device = features.device();
+    // Feature-map coordinates whose integers are feature-pixel centres.
+    let coordinate = |axis: usize, scale: f64| {
+        projection
+            .pixels
+            .clone()
+            .slice([0..v, 0..p, axis..axis + 1])
+            .reshape([v * p])
+            * scale
+            - 0.5
+    };
+    let x = coordinate(0, w as f64 / size[0] as f64);
+    let y = coordinate(1, h as f64 / size[1] as f64);
+    let x0 = x.clone().detach().floor();
+    let y0 = y.clone().detach().floor();
+    let fx = x - x0.clone();
+    let fy = y - y0.clone();
+    let view_start: Vec<f32> = (0..v)
+        .flat_map(|k| std::iter::repeat_n((k * h * w) as f32, p))
+        .collect();
+    let view_start = Tensor::<1>::from_data(TensorData::new(view_start, [v * p]), &device);
+    let rows_from_texel = features.permute([0, 2, 3, 1]).reshape([v * h * w, c]);
+    let mut out: Option<Tensor<2>> = None;
+    for (dx, dy) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+        let xi = x0.clone() + dx;
+        let yi = y0.clone() + dy;
+        let valid = xi
+            .clone()
+            .greater_equal_elem(0.0)
+            .bool_and(xi.clone().lower_elem(w as f64))
+            .bool_and(yi.clone().greater_equal_elem(0.0))
+            .bool_and(yi.clone().lower_elem(h as f64));
+        let texel = view_start.clone()
+            + yi.clamp(0.0, (h - 1) as f64) * w as f64
+            + xi.clamp(0.0, (w - 1) as f64);
+        let wx = if dx == 0.0 {
+            -fx.clone() + 1.0
+        } else {
+            fx.clone()
+        };
+        let wy = if dy == 0.0 {
+            -fy.clone() + 1.0
+        } else {
+            fy.clone()
+        };
+        let weight = (wx * wy * valid.float()).reshape([v * p, 1]);
+        let term = rows_from_texel.clone().select(0, texel.int()) * weight;
+        out = Some(match out {
+            Some(acc) => acc + term,
+            None => term,
+        });
+    }
+    out.expect("four corners").reshape([v, p, c])
+}
+
+/// [`sample`] through `grid_sample_2d` (`align_corners = false`, zero padding): the plain
+/// reference.
+pub fn sample_by_grid(features: Tensor<4>, projection: &Projection, size: [usize; 2]) -> Tensor<3> {
     let [v, p, _] = projection.pixels.dims();
     let device = features.device();
     let scale = Tensor::<1>::from_floats([2.0 / size[0] as f32, 2.0 / size[1] as f32], &device)
