@@ -35,7 +35,27 @@ pub struct Attributes {
     pub rgb: Tensor<2>,
 }
 
+/// Columns of [`Attributes::packed`]: offset 3, quaternion 4, log-scale 3, opacity logit 1,
+/// colour 3.
+pub const PACKED_COLUMNS: usize = 14;
+
 impl Attributes {
+    /// All attributes side by side, `[P, 14]`: offset (3), quaternion w x y z (4), log-scale
+    /// (3), opacity logit (1), colour (3); the decoder's ONNX output.
+    pub fn packed(&self) -> Tensor<2> {
+        let [p, _] = self.offset.dims();
+        Tensor::cat(
+            vec![
+                self.offset.clone(),
+                self.quats.clone(),
+                self.log_scales.clone(),
+                self.opacity_logits.clone().reshape([p, 1]),
+                self.rgb.clone(),
+            ],
+            1,
+        )
+    }
+
     /// The colour as SH DC coefficients `[P, 1, 3]`.
     pub fn sh_dc(&self) -> Tensor<3> {
         let [p, _] = self.rgb.dims();
@@ -76,20 +96,19 @@ impl Decoder {
         let part = |a: usize, b: usize| out.clone().slice([0..p, a..b]);
         let quat = part(3, 7)
             + Tensor::<1>::from_floats([1.0, 0.0, 0.0, 0.0], &out.device()).reshape([1, 4]);
-        let norm = quat
-            .clone()
-            .powi_scalar(2)
-            .sum_dim(1)
-            .sqrt()
-            .clamp_min(1e-8);
+        let norm = floor_at(quat.clone().powi_scalar(2).sum_dim(1).sqrt(), 1e-8);
         Attributes {
             offset: part(0, 3).tanh() * self.max_offset,
             quats: quat / norm,
-            log_scales: (sigmoid(part(7, 10)) * self.max_scale)
-                .clamp_min(1e-8)
-                .log(),
+            log_scales: floor_at(sigmoid(part(7, 10)) * self.max_scale, 1e-8).log(),
             opacity_logits: part(10, 11).reshape([p]),
             rgb: sigmoid(part(11, 14)),
         }
     }
+}
+
+/// `max(x, floor)` written as `relu(x − floor) + floor`, which ONNX export lowers (burn-onnx
+/// 0.22 does not lower `clamp_min`).
+fn floor_at(x: Tensor<2>, floor: f64) -> Tensor<2> {
+    relu(x - floor) + floor
 }

@@ -97,6 +97,17 @@ impl ResNetFpn {
 
     /// `[N, 3, H, W]` images in [0, 1] → `[N, 4·channels, ⌈H/4⌉, ⌈W/4⌉]` (Eq. 8, fused).
     pub fn forward(&self, images: Tensor<4>) -> Tensor<4> {
+        self.fused(images, false)
+    }
+
+    /// The same map as [`forward`](Self::forward), bilinear upsampling done by `interpolate`:
+    /// burn-onnx lowers that to ONNX `Resize`, but it has no backward on wgpu and NdArray, so
+    /// training samples a grid instead. For inference and ONNX export.
+    pub fn forward_inference(&self, images: Tensor<4>) -> Tensor<4> {
+        self.fused(images, true)
+    }
+
+    fn fused(&self, images: Tensor<4>, by_interpolate: bool) -> Tensor<4> {
         let c = self.backbone.forward(imagenet_normalise(images));
         let mut p: Vec<Tensor<4>> = Vec::with_capacity(4);
         let mut top: Option<Tensor<4>> = None;
@@ -118,6 +129,13 @@ impl ResNetFpn {
             .map(|(k, level)| {
                 if k == 0 {
                     level
+                } else if by_interpolate && self.upsample == Upsample::Bilinear {
+                    interpolate(
+                        level,
+                        InterpolateOptions::new(InterpolateMode::Bilinear)
+                            .with_align_corners(false)
+                            .with_output_size([h, w]),
+                    )
                 } else {
                     upsample(level, [h, w], self.upsample)
                 }

@@ -30,9 +30,21 @@ pub struct NlfConfig {
     pub occlusion_tolerance: f64,
     /// Hidden widths of the decoder MLP.
     pub hidden: Vec<usize>,
+    /// Also sample the input images' colour (bilinear, full resolution) and fuse it with the
+    /// same weights, giving the decoder `4 · fpn_channels + 3` inputs. Not in the paper, whose
+    /// encoder is pretrained and finetuned for 40 epochs; with a randomly initialised encoder
+    /// and a few hundred steps, colour is otherwise not learned (measured in the README).
+    pub image_colour: bool,
     /// Bounds of the decoded offset (metres, in the face frame) and scale (metres).
     pub max_offset: f64,
     pub max_scale: f64,
+}
+
+impl NlfConfig {
+    /// Width of the fused feature the decoder reads.
+    pub fn decoder_inputs(&self) -> usize {
+        4 * self.fpn_channels + if self.image_colour { 3 } else { 0 }
+    }
 }
 
 impl Default for NlfConfig {
@@ -45,6 +57,7 @@ impl Default for NlfConfig {
             fusion: Fusion::Full,
             occlusion_tolerance: 0.02,
             hidden: vec![128, 128],
+            image_colour: true,
             max_offset: 0.03,
             max_scale: 0.03,
         }
@@ -55,6 +68,8 @@ impl Default for NlfConfig {
 pub struct NlfGs {
     pub encoder: ResNetFpn,
     pub decoder: Decoder,
+    #[module(skip)]
+    image_colour: bool,
 }
 
 /// The input views of one subject and its posed body mesh in the same frame.
@@ -98,18 +113,39 @@ impl NlfGs {
     pub fn new(config: &NlfConfig, device: &Device) -> Self {
         let encoder = ResNetFpn::new(config.depth, config.fpn_channels, config.upsample, device);
         let decoder = Decoder::new(
-            4 * config.fpn_channels,
+            config.decoder_inputs(),
             &config.hidden,
             config.max_offset,
             config.max_scale,
             device,
         );
-        Self { encoder, decoder }
+        Self {
+            encoder,
+            decoder,
+            image_colour: config.image_colour,
+        }
     }
 
     /// Images → avatar (Eq. 1–4 and the decoder), with `fusion` weights.
     pub fn generate(&self, inputs: &NlfInputs, fusion: Fusion, tolerance: f64) -> Avatar {
         let features = self.encoder.forward(inputs.images.clone());
+        Avatar {
+            attributes: self
+                .decoder
+                .forward(self.query(features, inputs, fusion, tolerance)),
+        }
+    }
+
+    /// The fused feature `[G, C]` of every anchored Gaussian (Eq. 1–4) from the encoder's
+    /// `[V, C, h, w]` maps of `inputs.images` (and the images' own colour when
+    /// [`NlfConfig::image_colour`] is set): the step between the two exported ONNX graphs.
+    pub fn query(
+        &self,
+        features: Tensor<4>,
+        inputs: &NlfInputs,
+        fusion: Fusion,
+        tolerance: f64,
+    ) -> Tensor<2> {
         let g = inputs.anchors.len();
         let zeros = Tensor::<3>::zeros([1, g, 3], &inputs.vertices.device());
         let (centres, frames) =
@@ -127,9 +163,12 @@ impl NlfGs {
             inputs.depth.clone(),
             tolerance,
         );
-        let fused = sample_and_fuse(features, &projection, w, inputs.views.size);
-        Avatar {
-            attributes: self.decoder.forward(fused),
+        let fused = sample_and_fuse(features, &projection, w.clone(), inputs.views.size);
+        if self.image_colour {
+            let colour = sample_and_fuse(inputs.images.clone(), &projection, w, inputs.views.size);
+            Tensor::cat(vec![fused, colour], 1)
+        } else {
+            fused
         }
     }
 }

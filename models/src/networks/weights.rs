@@ -30,6 +30,15 @@ pub struct WeightFile {
 }
 
 impl WeightFile {
+    /// Tensors already in memory, `file` naming them in errors.
+    pub fn new(file: impl Into<String>, tensors: Tensors) -> Self {
+        Self {
+            file: file.into(),
+            tensors,
+            taken: Default::default(),
+        }
+    }
+
     pub fn read(path: &Path) -> Result<Self, WeightsError> {
         let file = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|e| WeightsError::File {
@@ -235,7 +244,9 @@ pub fn load_module<M: burn::module::Module>(
                 .file
                 .tensor(&self.path.join("."), current.dims(), &current.device())
             {
-                Ok(t) => Param::initialized(param.id, t),
+                // `map` keeps the parameter's training state (`train()` must still make it
+                // require a gradient).
+                Ok(t) => param.map(|_| t),
                 Err(e) => {
                     self.error.get_or_insert(e);
                     param
