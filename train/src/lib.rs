@@ -1,8 +1,10 @@
 //! Training machinery shared by every `train-<method>` binary: Gaussian parameter sets and
-//! their initialisation ([`gaussians`]), Adam ([`adam`]) and the 3DGS per-group optimiser
-//! ([`optimizer`]), density control ([`densify`]), image losses and metrics ([`loss`],
-//! [`lpips`]), NLF-GS's objective, data and baseline
-//! ([`nlf_loss`], [`nlf_data`], [`nlf_baseline`]), scene graphs ([`scene_graph`]), training data for static scenes ([`views`]), the
+//! their initialisation ([`gaussians`]), Adam ([`adam`]), the 3DGS per-group optimiser
+//! ([`optimizer`]) and Adam over network parameters ([`module_adam`]), density control
+//! ([`densify`]), image losses and metrics ([`loss`], [`lpips`]), NLF-GS's objective, data,
+//! baseline, training loop and ONNX export ([`nlf_loss`], [`nlf_data`], [`nlf_baseline`],
+//! [`nlf_trainer`], [`nlf_onnx`]), scene graphs ([`scene_graph`]), training data for static
+//! scenes ([`views`]), the
 //! static-scene loop ([`static_scene`]), checkpoints ([`checkpoint`]), configuration files
 //! ([`config`]), backends ([`backend`]), run directories ([`run_dir`]), image outputs
 //! ([`images`]) and INRIA-layout `.ply` files ([`ply`]).
@@ -16,9 +18,12 @@ pub mod gaussians;
 pub mod images;
 pub mod loss;
 pub mod lpips;
+pub mod module_adam;
 pub mod nlf_baseline;
 pub mod nlf_data;
 pub mod nlf_loss;
+pub mod nlf_onnx;
+pub mod nlf_trainer;
 pub mod optimizer;
 pub mod ply;
 pub mod run_dir;

@@ -358,35 +358,24 @@ fn render_writes_colour_depth_alpha_and_a_turntable() {
     );
 }
 
+/// A small `train-nlf` run: `iterations` steps, one training and one held-out identity at 32².
+fn train_nlf(dir: &Path, name: &str, extra: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_train-nlf"))
+        .args(["--name", name])
+        .args(["--set", "iterations=4", "--set", "eval_every=2"])
+        .args(["--set", "train_subjects=2", "--set", "test_subjects=1"])
+        .args(["--set", "size=32", "--set", "network.gaussians_per_face=1"])
+        .args(["--set", "network.fpn_channels=8"])
+        .args(extra)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn train_nlf_runs_end_to_end_with_its_baselines() {
     let dir = tempfile::tempdir().unwrap();
-    let run = Command::new(env!("CARGO_BIN_EXE_train-nlf"))
-        .args([
-            "--name",
-            "smoke",
-            "--set",
-            "iterations=2",
-            "--set",
-            "eval_every=2",
-        ])
-        .args([
-            "--set",
-            "train_subjects=1",
-            "--set",
-            "test_subjects=1",
-            "--set",
-            "size=32",
-        ])
-        .args([
-            "--set",
-            "network.gaussians_per_face=1",
-            "--set",
-            "network.fpn_channels=8",
-        ])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
+    let run = train_nlf(dir.path(), "smoke", &[]);
     assert!(run.status.success(), "{}", text(&run));
     let out = dir.path().join("runs/nlf/smoke");
     let metrics = json(&out.join("metrics.json"));
@@ -395,7 +384,69 @@ fn train_nlf_runs_end_to_end_with_its_baselines() {
         assert!(p.is_finite() && p > 5.0, "{key}: {p}");
     }
     assert!(metrics["final"]["psnr"].as_f64().unwrap().is_finite());
+    assert_eq!(metrics["evaluations"].as_array().unwrap().len(), 2);
     assert!(out.join("config.toml").exists() && out.join("renders").is_dir());
+    for file in [
+        "encoder.onnx",
+        "decoder.onnx",
+        "encoder.vectors.safetensors",
+        "decoder.vectors.safetensors",
+        "anchors.safetensors",
+        "README.md",
+    ] {
+        let size = std::fs::metadata(out.join("onnx").join(file)).map(|m| m.len());
+        assert!(size.as_ref().is_ok_and(|&s| s > 0), "onnx/{file}: {size:?}");
+    }
+
+    // Stopped after 1 step, resumed for the rest: the same network and Adam moments as the
+    // uninterrupted run, bit for bit, and the same metrics history.
+    let stopped = train_nlf(
+        dir.path(),
+        "split",
+        &["--stop-after", "1", "--set", "onnx=false"],
+    );
+    assert_eq!(stopped.status.code(), Some(130), "{}", text(&stopped));
+    let checkpoint = dir.path().join("runs/nlf/split/checkpoint.safetensors");
+    let resumed = Command::new(env!("CARGO_BIN_EXE_train-nlf"))
+        .args(["--name", "split", "--resume", checkpoint.to_str().unwrap()])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(resumed.status.success(), "{}", text(&resumed));
+    assert!(
+        text(&resumed).contains("resumed at step 1"),
+        "{}",
+        text(&resumed)
+    );
+    let whole = Checkpoint::read(&out.join("checkpoint.safetensors")).unwrap();
+    let split = Checkpoint::read(&checkpoint).unwrap();
+    assert_eq!(whole.tensors.len(), split.tensors.len());
+    assert!(
+        whole.tensors.keys().any(|k| k.ends_with(".exp_avg_sq")),
+        "Adam moments are saved"
+    );
+    for (name, tensor) in &whole.tensors {
+        assert!(
+            &split.tensors[name] == tensor,
+            "{name} differs after resuming"
+        );
+    }
+    let split_metrics = json(&dir.path().join("runs/nlf/split/metrics.json"));
+    assert_eq!(split_metrics["final"]["psnr"], metrics["final"]["psnr"]);
+    assert_eq!(split_metrics["baselines"], metrics["baselines"]);
+    // A checkpoint of another network is refused, naming the difference.
+    let other = Command::new(env!("CARGO_BIN_EXE_train-nlf"))
+        .args(["--resume", checkpoint.to_str().unwrap()])
+        .args(["--set", "network.fpn_channels=16"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        !other.status.success() && text(&other).contains("network configuration"),
+        "{}",
+        text(&other)
+    );
+
     // The checkpoint drives an avatar through a walk: PNG frames and a GIF, frames differ.
     let drive = Command::new(env!("CARGO_BIN_EXE_drive-nlf"))
         .args([
