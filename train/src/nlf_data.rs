@@ -9,6 +9,8 @@ use splatzoo_datasets::image_io::linear_to_srgb;
 use splatzoo_datasets::synth::rig::CameraTrack;
 use splatzoo_datasets::synth::scene::body_label;
 use splatzoo_datasets::synth::{Preset, SceneConfig};
+use splatzoo_models::anchor::MeshAnchors;
+use splatzoo_models::networks::nlf::NlfInputs;
 use splatzoo_models::networks::query::Views;
 use splatzoo_rasterizer::Camera;
 
@@ -111,6 +113,20 @@ impl NlfSubject {
             background: scene.environment.background.map(linear_to_srgb),
             betas: scene.people[0].motion.frame_betas(0).to_vec(),
             translation: scene.people[0].motion.translation(0),
+        }
+    }
+
+    /// The generator's inputs: the three input views with the posed mesh and its depth maps.
+    pub fn nlf_inputs<'a>(&self, faces: &'a [u32], anchors: &'a MeshAnchors) -> NlfInputs<'a> {
+        let (images, views, camera_centres) = self.input_tensors();
+        NlfInputs {
+            images,
+            views,
+            camera_centres,
+            vertices: self.vertices.clone(),
+            faces,
+            anchors,
+            depth: Some(self.input_depth.clone()),
         }
     }
 

@@ -37,6 +37,10 @@ pub struct NlfTrainConfig {
     pub learning_rate: f64,
     /// Seeds the network's random initialisation.
     pub seed: u64,
+    /// Pretrained ResNet weights in torchvision naming (safetensors; `conv1.weight`,
+    /// `layer1.0.bn1.running_mean`, …) to start the encoder from; the FPN and decoder start
+    /// random. Without it the encoder starts random too.
+    pub encoder_weights: Option<PathBuf>,
     pub eval_every: usize,
     /// Steps between checkpoints (0: only at the end and on Ctrl-C).
     pub checkpoint_every: usize,
@@ -59,6 +63,7 @@ impl Default for NlfTrainConfig {
             iterations: 500,
             learning_rate: 5e-4,
             seed: 0,
+            encoder_weights: None,
             eval_every: 100,
             checkpoint_every: 100,
             lpips_weights: None,
@@ -108,7 +113,15 @@ impl NlfTrainer {
     pub fn new(config: NlfTrainConfig, device: &Device) -> Result<Self, String> {
         config.check()?;
         device.seed(config.seed);
-        let model = NlfGs::new(&config.network, device).train();
+        let mut model = NlfGs::new(&config.network, device);
+        if let Some(path) = &config.encoder_weights {
+            let file = WeightFile::read(path).map_err(|e| e.to_string())?;
+            model
+                .encoder
+                .load_backbone(&file)
+                .map_err(|e| e.to_string())?;
+        }
+        let model = model.train();
         Ok(Self::with_model(
             config,
             model,
@@ -192,19 +205,13 @@ impl NlfTrainer {
 
     /// `subject`'s avatar from `model`, posed as in its images.
     pub fn avatar(&self, model: &NlfGs, subject: &NlfSubject) -> PosedGaussians {
-        let (images, views, centres) = subject.input_tensors();
-        let inputs = NlfInputs {
-            images,
-            views,
-            camera_centres: centres,
-            vertices: subject.vertices.clone(),
-            faces: &self.faces,
-            anchors: &self.anchors,
-            depth: Some(subject.input_depth.clone()),
-        };
         let network = &self.config.network;
         model
-            .generate(&inputs, network.fusion, network.occlusion_tolerance)
+            .generate(
+                &subject.nlf_inputs(&self.faces, &self.anchors),
+                network.fusion,
+                network.occlusion_tolerance,
+            )
             .drive(subject.vertices.clone(), &self.faces, &self.anchors)
     }
 

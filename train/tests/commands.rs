@@ -434,6 +434,17 @@ fn train_nlf_runs_end_to_end_with_its_baselines() {
     let split_metrics = json(&dir.path().join("runs/nlf/split/metrics.json"));
     assert_eq!(split_metrics["final"]["psnr"], metrics["final"]["psnr"]);
     assert_eq!(split_metrics["baselines"], metrics["baselines"]);
+    // Encoder weights that are not there are named.
+    let weights = train_nlf(
+        dir.path(),
+        "weights",
+        &["--set", "encoder_weights=\"resnet18-missing.safetensors\""],
+    );
+    assert!(
+        !weights.status.success() && text(&weights).contains("resnet18-missing.safetensors"),
+        "{}",
+        text(&weights)
+    );
     // A checkpoint of another network is refused, naming the difference.
     let other = Command::new(env!("CARGO_BIN_EXE_train-nlf"))
         .args(["--resume", checkpoint.to_str().unwrap()])

@@ -5,7 +5,7 @@
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::anchor::MeshAnchors;
 use splatzoo_models::body::builtin_body;
-use splatzoo_models::networks::nlf::{NlfConfig, NlfGs, NlfInputs};
+use splatzoo_models::networks::nlf::{NlfConfig, NlfGs};
 use splatzoo_models::networks::resnet::Depth;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::host_f32;
@@ -45,16 +45,8 @@ fn exported_graphs_reproduce_burn_in_tract() {
     let faces = builtin_body().model.faces.clone();
     let anchors = MeshAnchors::per_face(faces.len() / 3, config.gaussians_per_face);
     let subject = NlfSubject::synthetic(3, size as u32, &device);
-    let (images, views, centres) = subject.input_tensors();
-    let inputs = NlfInputs {
-        images: images.clone(),
-        views,
-        camera_centres: centres,
-        vertices: subject.vertices.clone(),
-        faces: &faces,
-        anchors: &anchors,
-        depth: Some(subject.input_depth.clone()),
-    };
+    let inputs = subject.nlf_inputs(&faces, &anchors);
+    let images = inputs.images.clone();
     let features = model.encoder.forward_inference(images.clone());
     let fused = model.query(features, &inputs, config.fusion, config.occlusion_tolerance);
     let dir = tempfile::tempdir().unwrap();

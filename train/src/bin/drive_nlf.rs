@@ -13,7 +13,7 @@ use splatzoo_datasets::synth::motion::{Motion, Start, generate};
 use splatzoo_models::anchor::MeshAnchors;
 use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
-use splatzoo_models::networks::nlf::{NlfConfig, NlfGs, NlfInputs};
+use splatzoo_models::networks::nlf::{NlfConfig, NlfGs};
 use splatzoo_models::networks::weights::{WeightFile, load_module};
 use splatzoo_rasterizer::{ColorMode, RasterSettings, rasterize};
 use splatzoo_train::backend::Backend;
@@ -67,21 +67,9 @@ fn run(args: Args) -> Result<(), String> {
     let body = &builtin_body().model;
     let faces = body.faces.clone();
     let anchors = MeshAnchors::per_face(faces.len() / 3, network.gaussians_per_face);
-    let (images, views, centres) = subject.input_tensors();
+    let inputs = subject.nlf_inputs(&faces, &anchors);
     let start = Instant::now();
-    let avatar = model.generate(
-        &NlfInputs {
-            images,
-            views,
-            camera_centres: centres,
-            vertices: subject.vertices.clone(),
-            faces: &faces,
-            anchors: &anchors,
-            depth: Some(subject.input_depth.clone()),
-        },
-        network.fusion,
-        network.occlusion_tolerance,
-    );
+    let avatar = model.generate(&inputs, network.fusion, network.occlusion_tolerance);
     let generated = start.elapsed().as_secs_f64();
     let sequence = match &args.poses {
         Some(path) => load_pose_sequence(path).map_err(|e| e.to_string())?,

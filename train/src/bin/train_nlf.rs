@@ -16,7 +16,7 @@
 use burn::tensor::Tensor;
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
-use splatzoo_models::networks::nlf::{NlfGs, NlfInputs, PosedGaussians};
+use splatzoo_models::networks::nlf::{NlfGs, PosedGaussians};
 use splatzoo_rasterizer::{ColorMode, RasterSettings, Render, rasterize};
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::config;
@@ -153,8 +153,8 @@ fn run(args: Args) -> Result<ExitCode, String> {
         .map_err(|e| e.to_string())?;
     let say = |run: &mut RunDir, bar: Option<&ProgressBar>, line: String| {
         match bar {
-            Some(bar) => bar.println(&line),
-            None => println!("{line}"),
+            Some(bar) if !bar.is_hidden() => bar.println(&line),
+            _ => println!("{line}"),
         }
         run.log(&line);
     };
@@ -340,17 +340,9 @@ fn run(args: Args) -> Result<ExitCode, String> {
 fn export_onnx(trainer: &NlfTrainer, dir: &std::path::Path) -> Result<nlf_onnx::OnnxFiles, String> {
     let model: NlfGs = trainer.model();
     let subject = &trainer.test[0];
-    let (images, views, centres) = subject.input_tensors();
+    let inputs = subject.nlf_inputs(&trainer.faces, &trainer.anchors);
+    let images = inputs.images.clone();
     let [v, _, h, w] = images.dims();
-    let inputs = NlfInputs {
-        images: images.clone(),
-        views,
-        camera_centres: centres,
-        vertices: subject.vertices.clone(),
-        faces: &trainer.faces,
-        anchors: &trainer.anchors,
-        depth: Some(subject.input_depth.clone()),
-    };
     let network = &trainer.config.network;
     let fused = model.query(
         model.encoder.forward_inference(images.clone()),
