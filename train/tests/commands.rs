@@ -375,15 +375,49 @@ fn train_nlf(dir: &Path, name: &str, extra: &[&str]) -> Output {
 #[test]
 fn train_nlf_runs_end_to_end_with_its_baselines() {
     let dir = tempfile::tempdir().unwrap();
-    let run = train_nlf(dir.path(), "smoke", &[]);
+    // LPIPS weights in AlexNet's torchvision layout, with few channels.
+    let device = Device::flex();
+    let mut alex = Checkpoint::default();
+    for (index, out, inp, k) in [
+        (0, 4, 3, 11),
+        (3, 4, 4, 5),
+        (6, 4, 4, 3),
+        (8, 4, 4, 3),
+        (10, 4, 4, 3),
+    ] {
+        let n = out * inp * k * k;
+        let weight: Vec<f32> = (0..n)
+            .map(|i| ((i * 7919) % 13) as f32 / 13.0 - 0.45)
+            .collect();
+        alex.put(
+            &format!("features.{index}.weight"),
+            &burn::tensor::Tensor::<4>::from_data(
+                burn::tensor::TensorData::new(weight, [out, inp, k, k]),
+                &device,
+            ),
+        );
+        alex.put(
+            &format!("features.{index}.bias"),
+            &burn::tensor::Tensor::<1>::zeros([out], &device),
+        );
+    }
+    alex.write(&dir.path().join("alex.safetensors")).unwrap();
+    let run = train_nlf(
+        dir.path(),
+        "smoke",
+        &["--set", "lpips_weights=\"alex.safetensors\""],
+    );
     assert!(run.status.success(), "{}", text(&run));
     let out = dir.path().join("runs/nlf/smoke");
     let metrics = json(&out.join("metrics.json"));
     for key in ["mean_colour", "untrained"] {
         let p = metrics["baselines"][key]["psnr"].as_f64().unwrap();
         assert!(p.is_finite() && p > 5.0, "{key}: {p}");
+        let l = metrics["baselines"][key]["lpips"].as_f64().unwrap();
+        assert!(l.is_finite() && l >= 0.0, "{key}: LPIPS {l}");
     }
     assert!(metrics["final"]["psnr"].as_f64().unwrap().is_finite());
+    assert!(metrics["final"]["lpips"].as_f64().unwrap() >= 0.0);
     assert_eq!(metrics["evaluations"].as_array().unwrap().len(), 2);
     assert!(out.join("config.toml").exists() && out.join("renders").is_dir());
     for file in [
@@ -433,7 +467,12 @@ fn train_nlf_runs_end_to_end_with_its_baselines() {
     }
     let split_metrics = json(&dir.path().join("runs/nlf/split/metrics.json"));
     assert_eq!(split_metrics["final"]["psnr"], metrics["final"]["psnr"]);
-    assert_eq!(split_metrics["baselines"], metrics["baselines"]);
+    for key in ["mean_colour", "untrained"] {
+        assert_eq!(
+            split_metrics["baselines"][key]["psnr"],
+            metrics["baselines"][key]["psnr"]
+        );
+    }
     // Encoder weights that are not there are named.
     let weights = train_nlf(
         dir.path(),
