@@ -6,10 +6,11 @@
 //!    them into each view (Eq. 2), sample the feature maps bilinearly (Eq. 3) and fuse across
 //!    views with the geometry-aware weights (Eq. 4). It needs floor, integer indices and
 //!    comparisons, which burn-onnx 0.22 does not lower, and it is cheap arithmetic on the
-//!    mesh; [`NlfGs::query`] is the reference, and the `README.md`
-//!    written beside the graphs spells out its conventions.
-//! 3. `decoder.onnx`: `[G, 4C (+ 3)]` fused features → `[G, 14]` attributes (offset 3, quaternion 4,
-//!    log-scale 3, opacity logit 1, colour 3; [`Attributes::packed`]). `G` is fixed at export
+//!    mesh; [`NlfGs::query`] is the reference, and the `README.md` written beside the graphs
+//!    spells out its conventions.
+//! 3. `decoder.onnx`: `[G, 4C (+ 3)]` fused features → `[G, 14]` attributes (offset 3,
+//!    quaternion 4, log-scale 3, opacity logit 1, colour 3;
+//!    [`splatzoo_models::networks::decoder::Attributes::packed`]). `G` is fixed at export
 //!    (burn-onnx rejects slicing a tensor with a dynamic axis, and the decoder slices its head).
 //!
 //! Beside each graph, `<graph>.vectors.safetensors` holds test vectors (`input.k`, `output.k`):
@@ -36,7 +37,7 @@ pub struct OnnxSamples {
     /// Each `[V, 3, H, W]` in [0, 1]; all the same `H`, `W`. At least two, differing in `V`
     /// (the encoder's dynamic axis is validated on them).
     pub images: Vec<Tensor<4>>,
-    /// Each `[G, 4C]`.
+    /// Each `[G, NlfConfig::decoder_inputs()]`, as [`NlfGs::query`] gives them.
     pub fused: Vec<Tensor<2>>,
 }
 

@@ -23,6 +23,8 @@ fn small_config() -> NlfConfig {
         fpn_channels: 8,
         gaussians_per_face: 1,
         hidden: vec![32, 32],
+        // The optional colour input, so that the exported decoder covers it.
+        image_colour: true,
         ..NlfConfig::default()
     }
 }

@@ -100,11 +100,24 @@ impl Decoder {
         Attributes {
             offset: part(0, 3).tanh() * self.max_offset,
             quats: quat / norm,
-            log_scales: floor_at(sigmoid(part(7, 10)) * self.max_scale, 1e-8).log(),
+            // ln(max_scale · sigmoid(x)) computed in the log domain: the same function, but a
+            // saturated sigmoid no longer turns float rounding into large log differences.
+            log_scales: floor_at(
+                log_sigmoid(part(7, 10)) + self.max_scale.ln(),
+                MIN_LOG_SCALE,
+            ),
             opacity_logits: part(10, 11).reshape([p]),
             rgb: sigmoid(part(11, 14)),
         }
     }
+}
+
+/// Scales never go below 1e-8 m.
+const MIN_LOG_SCALE: f64 = -18.420_680_743_952_367;
+
+/// `ln σ(x) = −(relu(−x) + ln(1 + e^{−|x|}))`, stable at any `x` and lowerable to ONNX.
+fn log_sigmoid(x: Tensor<2>) -> Tensor<2> {
+    -(relu(-x.clone()) + ((-x.abs()).exp() + 1.0).log())
 }
 
 /// `max(x, floor)` written as `relu(x − floor) + floor`, which ONNX export lowers (burn-onnx
