@@ -162,10 +162,28 @@ impl ModuleAdam {
     }
 }
 
-/// Every float parameter's shape under its dotted path.
+/// Every float parameter's shape under its dotted path (no values are read).
 fn shapes<M: Module>(module: &M) -> BTreeMap<String, Vec<usize>> {
-    splatzoo_models::networks::weights::module_tensors(module)
-        .into_iter()
-        .map(|(path, (shape, _))| (path, shape))
-        .collect()
+    struct Collect {
+        path: Vec<String>,
+        out: BTreeMap<String, Vec<usize>>,
+    }
+    impl burn::module::ModuleVisitor for Collect {
+        fn enter_module(&mut self, name: &str, _: &str) {
+            self.path.push(name.to_owned());
+        }
+        fn exit_module(&mut self, _: &str, _: &str) {
+            self.path.pop();
+        }
+        fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+            self.out
+                .insert(self.path.join("."), param.val().dims().to_vec());
+        }
+    }
+    let mut c = Collect {
+        path: Vec::new(),
+        out: BTreeMap::new(),
+    };
+    module.visit(&mut c);
+    c.out
 }
