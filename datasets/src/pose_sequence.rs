@@ -101,6 +101,35 @@ impl PoseSequence {
     }
 }
 
+/// AMASS's world (z up) to the bodies' world (y up): `(x, y, z) → (x, z, −y)`, a −90° turn
+/// about x.
+pub const Z_UP_TO_Y_UP: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]];
+
+impl PoseSequence {
+    /// The sequence seen in a world turned by `rotation` about its origin: every root
+    /// orientation (joint 0) pre-multiplied by it and every translation rotated. (A body's root
+    /// turns about its pelvis, not the origin, so absolute placement moves by the rotated pelvis
+    /// offset; callers that keep the body in place use relative translations.)
+    pub fn rotated_world(&self, rotation: [[f64; 3]; 3]) -> Self {
+        use splatzoo_models::rotation_scalar::{axis_angle_matrix, matrix_axis_angle};
+        let mut out = self.clone();
+        let r = rotation;
+        for t in 0..self.frames() {
+            let root = axis_angle_matrix(self.pose(t)[..3].try_into().expect("3 values"));
+            let turned: [[f64; 3]; 3] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| (0..3).map(|k| r[i][k] * root[k][j]).sum())
+            });
+            let row = t * 3 * self.joints;
+            out.poses[row..row + 3].copy_from_slice(&matrix_axis_angle(&turned));
+            let tr = self.translation(t);
+            for i in 0..3 {
+                out.translations[3 * t + i] = (0..3).map(|k| r[i][k] * tr[k]).sum();
+            }
+        }
+        out
+    }
+}
+
 fn first_present(
     archive: &mut NpzArchive<std::io::BufReader<std::fs::File>>,
     path: &Path,

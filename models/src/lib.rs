@@ -1,10 +1,17 @@
-//! Body models, skinning, Gaussian sets, networks and losses shared by the zoo's methods.
+//! Shared blocks below the methods: body models and skinning, rotations, network blocks, mesh
+//! utilities and file readers; none of it names a paper.
 //!
-//! So far: rotation representations as differentiable Burn ops ([`rotation`]) and the body-model
-//! layer ([`body`]): the model data, forward kinematics and linear blend skinning.
+//! - [`body`]: SMPL/SMPL-H/SMPL-X loaders and the built-in procedural body, forward kinematics
+//!   and linear blend skinning, skeleton priors;
+//! - [`rotation`] (Burn ops) and [`rotation_scalar`] (f64): axis-angle, matrices, quaternions,
+//!   6-D;
+//! - [`anchor`]: Gaussians anchored on mesh faces, face frames, subdivision, surface sampling;
+//! - [`networks`]: ResNet/FPN encoders and safetensors weight files;
+//! - [`pickle`] (Python pickles, joblib, numpy objects) and [`files`] (the one atomic writer).
 
 pub mod anchor;
 pub mod body;
+pub mod files;
 pub mod networks;
 pub mod pickle;
 pub mod rotation;

@@ -52,6 +52,7 @@ mod cube_backend;
 pub mod error;
 pub mod kernels;
 pub mod reference;
+pub mod sh;
 pub mod testing;
 
 pub use api::{Render, Splats, rasterize};

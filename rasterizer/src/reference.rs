@@ -10,61 +10,9 @@ use crate::camera::{ColorMode, RasterMode, RasterSettings};
 use crate::cpu::{ALPHA_MAX, TRANSMITTANCE_MIN};
 use burn::tensor::Tensor;
 
-const SH_C0: f32 = 0.282_094_8;
-const SH_C1: f32 = 0.488_602_5;
-const SH_C2: [f32; 5] = [
-    1.092_548_4,
-    -1.092_548_4,
-    0.315_391_6,
-    -1.092_548_4,
-    0.546_274_2,
-];
-const SH_C3: [f32; 7] = [
-    -0.590_043_6,
-    2.890_611_4,
-    -0.457_045_8,
-    0.373_176_3,
-    -0.457_045_8,
-    1.445_305_7,
-    -0.590_043_6,
-];
-
 fn column(t: &Tensor<2>, j: usize) -> Tensor<1> {
     let n = t.dims()[0];
     t.clone().slice([0..n, j..j + 1]).reshape([n])
-}
-
-/// SH basis functions `Y_k(d)` for `k < (degree + 1)²`, each `[N]`.
-fn sh_basis(degree: u32, x: &Tensor<1>, y: &Tensor<1>, z: &Tensor<1>) -> Vec<Tensor<1>> {
-    let ones = x.ones_like();
-    let mut b = vec![ones * SH_C0];
-    if degree >= 1 {
-        b.push(y.clone() * -SH_C1);
-        b.push(z.clone() * SH_C1);
-        b.push(x.clone() * -SH_C1);
-    }
-    if degree >= 2 {
-        let (xx, yy, zz) = (
-            x.clone() * x.clone(),
-            y.clone() * y.clone(),
-            z.clone() * z.clone(),
-        );
-        b.push(x.clone() * y.clone() * SH_C2[0]);
-        b.push(y.clone() * z.clone() * SH_C2[1]);
-        b.push((zz.clone() * 2.0 - xx.clone() - yy.clone()) * SH_C2[2]);
-        b.push(x.clone() * z.clone() * SH_C2[3]);
-        b.push((xx.clone() - yy.clone()) * SH_C2[4]);
-        if degree >= 3 {
-            b.push(y.clone() * (xx.clone() * 3.0 - yy.clone()) * SH_C3[0]);
-            b.push(x.clone() * y.clone() * z.clone() * SH_C3[1]);
-            b.push(y.clone() * (zz.clone() * 4.0 - xx.clone() - yy.clone()) * SH_C3[2]);
-            b.push(z.clone() * (zz.clone() * 2.0 - xx.clone() * 3.0 - yy.clone() * 3.0) * SH_C3[3]);
-            b.push(x.clone() * (zz.clone() * 4.0 - xx.clone() - yy.clone()) * SH_C3[4]);
-            b.push(z.clone() * (xx.clone() - yy.clone()) * SH_C3[5]);
-            b.push(x.clone() * (xx - yy * 3.0) * SH_C3[6]);
-        }
-    }
-    b
 }
 
 /// Renders `[H, W, C + 2]` (colour, alpha, accumulated depth) like [`crate::rasterize`]'s op.
@@ -190,7 +138,7 @@ pub fn render(splats: &Splats, background: Tensor<1>, settings: &RasterSettings)
                 + d[1].clone().powi_scalar(2)
                 + d[2].clone().powi_scalar(2))
             .sqrt();
-            let basis = sh_basis(
+            let basis = crate::sh::basis_columns(
                 degree,
                 &(d[0].clone() / len.clone()),
                 &(d[1].clone() / len.clone()),

@@ -11,6 +11,7 @@
 
 use splatzoo_train::backend::Backend;
 use splatzoo_train::densify::Strategy;
+use splatzoo_train::harness::Method;
 use splatzoo_train::static_scene::{StaticConfig, StaticTrainer};
 use std::process::Command;
 use std::time::Instant;
@@ -45,7 +46,7 @@ fn child(backend: Backend, steps: usize) {
         trainer.step().expect("step");
     }
     let rate = steps as f64 / start.elapsed().as_secs_f64();
-    println!("{rate} {} {}", peak_rss_mib(), trainer.set.len());
+    println!("{rate} {} {}", peak_rss_mib(), trainer.graph.gaussians());
 }
 
 fn main() {

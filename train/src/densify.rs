@@ -23,6 +23,8 @@ use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_rasterizer::Render;
 use std::ops::Range;
 
+pub mod strategy;
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Strategy {

@@ -7,7 +7,7 @@ use burn::tensor::{Device, Int, Tensor, TensorData};
 use splatzoo_rasterizer::Splats;
 
 /// The SH DC basis constant: colour = C0 · dc + 0.5.
-pub const SH_C0: f64 = 0.282_094_791_773_878_14;
+pub use splatzoo_rasterizer::sh::SH_C0;
 /// SH coefficients per colour channel besides DC at degree 3.
 pub const SH_REST: usize = 15;
 
@@ -84,6 +84,35 @@ impl GaussianSet {
             opacity_logits: self.opacity_logits.clone().autodiff().require_grad(),
             sh_dc: leaf3(&self.sh_dc),
             sh_rest: leaf3(&self.sh_rest),
+        }
+    }
+
+    /// The set behind degree-3 `splats` (what [`Self::splats`] gave, or a scene graph's render
+    /// input, for `.ply` export); lower degrees are padded with zero coefficients.
+    pub fn from_splats(splats: &Splats) -> GaussianSet {
+        let [n, k, c] = splats.colors.dims();
+        assert!(
+            c == 3 && (1..=SH_REST + 1).contains(&k),
+            "from_splats: colours [N, K ≤ 16, 3], got {:?}",
+            [n, k, c]
+        );
+        let device = splats.colors.device();
+        let pad = || Tensor::<3>::zeros([n, SH_REST + 1 - k, 3], &device);
+        let sh_rest = match k {
+            1 => pad(),
+            k if k == SH_REST + 1 => splats.colors.clone().slice([0..n, 1..k, 0..3]),
+            _ => Tensor::cat(
+                vec![splats.colors.clone().slice([0..n, 1..k, 0..3]), pad()],
+                1,
+            ),
+        };
+        GaussianSet {
+            means: splats.means.clone(),
+            quats: splats.quats.clone(),
+            log_scales: splats.log_scales.clone(),
+            opacity_logits: splats.opacity_logits.clone(),
+            sh_dc: splats.colors.clone().slice([0..n, 0..1, 0..3]),
+            sh_rest,
         }
     }
 

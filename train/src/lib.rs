@@ -1,35 +1,40 @@
-//! Training machinery shared by every `train-<method>` binary: Gaussian parameter sets and
-//! their initialisation ([`gaussians`]), Adam ([`adam`]), the 3DGS per-group optimiser
-//! ([`optimizer`]) and Adam over network parameters ([`module_adam`]), density control
-//! ([`densify`]), image losses and metrics ([`loss`], [`lpips`]), NLF-GS's objective, data,
-//! baseline, training loop and ONNX export ([`nlf_loss`], [`nlf_data`], [`nlf_baseline`],
-//! [`nlf_trainer`], [`nlf_onnx`]), scene graphs ([`scene_graph`]), training data for static
-//! scenes ([`views`]), the
-//! static-scene loop ([`static_scene`]), checkpoints ([`checkpoint`]), configuration files
-//! ([`config`]), backends ([`backend`]), run directories ([`run_dir`]), image outputs
-//! ([`images`]) and INRIA-layout `.ply` files ([`ply`]).
+//! The training engine every method builds on; it names no paper.
+//!
+//! - Contracts: the [`harness::Method`] trait and the one command line every `train-<method>`
+//!   binary runs ([`harness::cli`]); the scene graph and its nodes' lifecycle ([`scene`]).
+//! - Parameters and optimisers: Gaussian sets and their initialisation ([`gaussians`]), Adam
+//!   ([`adam`]), the 3DGS per-group optimiser ([`optimizer`]), Adam over network parameters by
+//!   path ([`module_adam`]), density control and its strategies ([`densify`]).
+//! - Objectives and metrics: image losses, plain and masked, and PSNR ([`loss`]), LPIPS
+//!   ([`lpips`]).
+//! - Data and files: training views of static scenes ([`views`]), checkpoints
+//!   ([`checkpoint`]), configuration files ([`config`]), backends ([`backend`]), run
+//!   directories ([`run_dir`]), image outputs ([`images`]), INRIA-layout `.ply` ([`ply`]).
+//! - Static-scene 3D Gaussian splatting, the scene-prior stage the methods reuse
+//!   ([`static_scene`]; the `train-3dgs` and `render` binaries).
+//!
+//! Errors: [`TrainError`].
 
 pub mod adam;
 pub mod backend;
 pub mod checkpoint;
 pub mod config;
 pub mod densify;
+mod error;
 pub mod gaussians;
+pub mod harness;
 pub mod images;
 pub mod loss;
 pub mod lpips;
 pub mod module_adam;
-pub mod nlf_baseline;
-pub mod nlf_data;
-pub mod nlf_loss;
-pub mod nlf_onnx;
-pub mod nlf_trainer;
 pub mod optimizer;
 pub mod ply;
 pub mod run_dir;
-pub mod scene_graph;
+pub mod scene;
 pub mod static_scene;
 pub mod views;
+
+pub use error::TrainError;
 
 use burn::tensor::Tensor;
 

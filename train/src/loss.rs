@@ -1,7 +1,7 @@
 //! Image losses and metrics on `[H, W, C]` tensors in [0, 1]: L1, SSIM with the 11-tap Gaussian
 //! window (σ = 1.5, zero padding, as INRIA 3DGS computes it), D-SSIM = (1 − SSIM) / 2, the 3DGS
-//! training loss `(1 − λ) L1 + λ D-SSIM`, their masked variants, an intensity-and-gradient
-//! term, silhouette, and PSNR.
+//! training loss `(1 − λ) L1 + λ D-SSIM`, their masked variants, silhouette, and PSNR (plain
+//! and masked).
 
 use burn::tensor::Tensor;
 use burn::tensor::module::conv2d;
@@ -101,23 +101,6 @@ pub fn masked_ssim(image: Tensor<3>, target: Tensor<3>, mask: Tensor<2>) -> Tens
 /// Silhouette loss: mean absolute difference of rendered alpha `[H, W]` and a mask.
 pub fn silhouette(alpha: Tensor<2>, mask: Tensor<2>) -> Tensor<1> {
     (alpha - mask).abs().mean()
-}
-
-/// The intensity-and-gradient term NLF-GS adds to its reconstruction loss (its `L_perc`,
-/// Eq. 6): L1 between luminances (Rec. 709 weights) plus L1 between their horizontal and
-/// vertical finite differences, which weighs edges. No pretrained network is involved.
-pub fn intensity_gradient(image: Tensor<3>, target: Tensor<3>) -> Tensor<1> {
-    let [h, w, c] = image.dims();
-    assert_eq!(c, 3, "intensity_gradient takes [H, W, 3] images");
-    let device = image.device();
-    let luma = Tensor::<1>::from_floats([0.2126, 0.7152, 0.0722], &device).reshape([1, 1, 3]);
-    let y = |t: Tensor<3>| (t * luma.clone()).sum_dim(2).reshape([h, w]);
-    let (a, b) = (y(image), y(target));
-    let dx = |t: Tensor<2>| t.clone().slice([0..h, 1..w]) - t.slice([0..h, 0..w - 1]);
-    let dy = |t: Tensor<2>| t.clone().slice([1..h, 0..w]) - t.slice([0..h - 1, 0..w]);
-    (a.clone() - b.clone()).abs().mean()
-        + (dx(a.clone()) - dx(b.clone())).abs().mean()
-        + (dy(a) - dy(b)).abs().mean()
 }
 
 /// PSNR in dB of images in [0, 1] (from the mean squared error over all pixels and channels).

@@ -72,9 +72,7 @@ pub fn write_ply(path: &Path, set: &GaussianSet) -> Result<(), PlyError> {
         file: path.display().to_string(),
         source,
     };
-    let tmp = path.with_extension("ply.partial");
-    std::fs::write(&tmp, &bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    splatzoo_models::files::write_bytes(path, &bytes).map_err(io)
 }
 
 /// Reads an INRIA-layout `.ply` (any property order; missing `f_rest_*` read as zero, as in

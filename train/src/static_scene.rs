@@ -1,26 +1,29 @@
-//! The 3DGS training loop for a static scene: one [`StaticNode`] in a [`SceneGraph`], Adam with
-//! the 3DGS learning rates, `(1 − λ) L1 + λ D-SSIM`, SH degree raised on a schedule, and ADC or
-//! MCMC density control. Its whole state (parameters, moments, density statistics, random
-//! state, the pending view order) goes into one checkpoint, so a resumed run continues bit for
-//! bit. `train-3dgs` drives it; later methods reuse it as their scene-prior stage.
+//! Static-scene 3D Gaussian splatting as a [`Method`]: one [`GaussianNode`] (the background,
+//! with its own per-group Adam and ADC or MCMC density control) in a [`SceneGraph`],
+//! `(1 − λ) L1 + λ D-SSIM`, the SH degree raised on a schedule. Its whole state (the node's
+//! parameters, moments, density statistics and random state; the view order) goes into one
+//! checkpoint, so a resumed run continues bit for bit. `train-3dgs` runs it through the
+//! harness; later methods reuse it as their scene-prior stage.
 
 use crate::backend::Backend;
 use crate::checkpoint::{Checkpoint, CheckpointError};
-use crate::densify::{
-    DensifyConfig, DensifyReport, DensityStats, Strategy, adaptive_density_control, mcmc_noise,
-    mcmc_regulariser, mcmc_relocate, reset_opacity,
-};
+use crate::densify::{DensifyConfig, Strategy};
+use crate::error::TrainError;
 use crate::gaussians::GaussianSet;
+use crate::harness::{Evaluation, Method, MethodConfig, Say, ScoreSum, StepReport};
+use crate::images::{side_by_side, srgb_image, write_png};
 use crate::loss::{photometric, psnr, scalar, ssim};
 use crate::lpips::Lpips;
-use crate::optimizer::{GaussianOptimizer, LearningRates};
-use crate::scene_graph::{FrameQuery, SceneGraph, StaticNode};
-use crate::views::{DataConfig, DataError, ViewSet};
+use crate::optimizer::LearningRates;
+use crate::ply::write_ply;
+use crate::run_dir::RunDir;
+use crate::scene::{FrameQuery, GaussianNode, SceneGraph};
+use crate::views::{DataConfig, ViewSet};
 use burn::tensor::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 use splatzoo_datasets::synth::rng::Rng;
-use splatzoo_rasterizer::{ColorMode, RasterError, RasterSettings, Render};
-use std::path::PathBuf;
+use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render};
+use std::path::{Path, PathBuf};
 
 /// Every knob of a static-scene run (the `train-3dgs` configuration file).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -65,273 +68,197 @@ impl Default for StaticConfig {
     }
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum TrainError {
-    #[error(transparent)]
-    Data(#[from] DataError),
-    #[error(transparent)]
-    Raster(#[from] RasterError),
-    #[error(transparent)]
-    Checkpoint(#[from] CheckpointError),
-    #[error("configuration: {0}")]
-    Config(String),
+impl MethodConfig for StaticConfig {
+    fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    fn iterations(&self) -> usize {
+        self.iterations
+    }
+
+    fn eval_every(&self) -> usize {
+        self.eval_every
+    }
+
+    fn checkpoint_every(&self) -> usize {
+        self.checkpoint_every
+    }
+
+    fn lpips_weights(&self) -> Option<&Path> {
+        self.lpips_weights.as_deref()
+    }
+
+    fn validate(&self) -> Result<(), TrainError> {
+        if self.iterations == 0 {
+            return Err(TrainError::Config("iterations ≥ 1".into()));
+        }
+        if self.sh_degree > 3 {
+            return Err(TrainError::Config("sh_degree ≤ 3".into()));
+        }
+        if !(0.0..=1.0).contains(&self.lambda_dssim) {
+            return Err(TrainError::Config("lambda_dssim in [0, 1]".into()));
+        }
+        Ok(())
+    }
 }
 
-/// One step's outcome.
-#[derive(Debug, Clone, Copy)]
-pub struct StepReport {
-    pub loss: f64,
-    pub density: Option<DensifyReport>,
+/// `train-3dgs`'s shorthands.
+#[derive(clap::Args, Debug)]
+pub struct StaticArgs {
+    /// A nerfstudio folder (or its transforms.json) instead of the synthetic scene.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Shorthand for `--set data.size=N` (synthetic image side).
+    #[arg(long)]
+    pub size: Option<u32>,
+    /// Shorthand for `--set densify.strategy=…`.
+    #[arg(long, value_enum)]
+    pub densify: Option<Strategy>,
 }
 
-/// Held-out metrics at one step.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Evaluation {
-    pub step: usize,
-    pub psnr: f64,
-    pub ssim: f64,
-    pub lpips: Option<f64>,
-    pub gaussians: usize,
-}
+/// The name of the one node (its checkpoint prefix).
+pub const BACKGROUND: &str = "background";
 
 pub struct StaticTrainer {
     pub config: StaticConfig,
     pub views: ViewSet,
-    pub set: GaussianSet,
-    pub optimizer: GaussianOptimizer,
-    pub stats: DensityStats,
+    /// The background node alone.
+    pub graph: SceneGraph,
     /// Steps taken.
     pub step: usize,
+    /// Orders the training views.
     rng: Rng,
     /// Training views still to visit in this epoch (taken from the back).
     order: Vec<usize>,
-    opacity_resets: usize,
     background: Tensor<1>,
-    device: Device,
 }
 
-const FORMAT: &str = "splatzoo-static-1";
-
 impl StaticTrainer {
-    /// Loads the data and initialises the Gaussians from its points.
-    pub fn new(config: StaticConfig, device: &Device) -> Result<Self, TrainError> {
-        validate(&config)?;
-        let views = ViewSet::load(&config.data, device)?;
-        let p = &views.points;
-        if p.positions.is_empty() {
-            return Err(TrainError::Config("the data gave no initial points".into()));
-        }
-        let set = GaussianSet::from_points(&p.positions, &p.colours, &p.sigmas, device);
-        let optimizer = GaussianOptimizer::new(&set, config.rates, views.extent);
-        let stats = DensityStats::new(set.len(), device);
-        let rng = Rng(config.seed ^ 0x3D65_0000);
-        Ok(Self::assemble(
-            config, views, set, optimizer, stats, rng, device,
-        ))
-    }
-
-    fn assemble(
-        config: StaticConfig,
-        views: ViewSet,
-        set: GaussianSet,
-        optimizer: GaussianOptimizer,
-        stats: DensityStats,
-        rng: Rng,
-        device: &Device,
-    ) -> Self {
-        let background = Tensor::<1>::from_floats(views.background.as_slice(), device);
-        Self {
-            config,
-            views,
-            set,
-            optimizer,
-            stats,
-            step: 0,
-            rng,
-            order: Vec::new(),
-            opacity_resets: 0,
-            background,
-            device: device.clone(),
-        }
-    }
-
     /// The SH degree trained at the current step.
     pub fn sh_degree(&self) -> u32 {
         let every = self.config.sh_degree_every.max(1);
         ((self.step / every) as u32).min(self.config.sh_degree)
     }
 
-    /// One optimiser step on the next training view, then density control where scheduled.
-    pub fn step(&mut self) -> Result<StepReport, TrainError> {
-        if self.order.is_empty() {
-            self.order = (0..self.views.train.len()).collect();
-            self.rng.shuffle(&mut self.order);
-        }
-        let view = &self.views.train[self.order.pop().expect("refilled above")];
-        let settings = RasterSettings::new(
-            view.camera,
-            ColorMode::Sh {
-                degree: self.sh_degree(),
-            },
-        );
-        let leaves = self.set.leaves();
-        let graph = SceneGraph::new().with(StaticNode {
-            name: "background".into(),
-            gaussians: leaves.clone(),
-        });
+    /// The scene's Gaussians now (what `point_cloud.ply` holds).
+    pub fn gaussian_set(&self) -> GaussianSet {
+        let camera = self.any_camera();
         let query = FrameQuery {
-            camera: &view.camera,
+            camera: &camera,
             frame: 0,
             time: 0.0,
         };
-        let out = graph.render(&query, self.background.clone().autodiff(), &settings)?;
-        let photo = photometric(
-            out.render.color.clone(),
-            view.image.clone().autodiff(),
-            self.config.lambda_dssim,
-        );
-        let density = &self.config.densify;
-        let loss = if density.strategy == Strategy::Mcmc {
-            photo.clone() + mcmc_regulariser(density, &leaves)
-        } else {
-            photo.clone()
-        };
-        let grads = loss.backward();
-        if density.strategy == Strategy::Adc {
-            self.stats.record(&out.render, &grads, out.rows[0].clone());
-        }
-        let progress = self.step as f64 / self.config.iterations as f64;
-        self.optimizer
-            .step(&mut self.set, &leaves, &grads, progress);
-        self.step += 1;
-        let step = self.step;
-        let mut report = None;
-        match density.strategy {
-            Strategy::Adc if density.refines_at(step) => {
-                report = Some(adaptive_density_control(
-                    density,
-                    &mut self.set,
-                    &mut self.optimizer,
-                    &mut self.stats,
-                    self.views.extent,
-                    self.opacity_resets > 0,
-                    &mut self.rng,
-                ));
-            }
-            Strategy::Mcmc => {
-                let rate = self.optimizer.means_rate(progress);
-                mcmc_noise(density, &mut self.set, rate, &mut self.rng);
-                if density.refines_at(step) {
-                    report = Some(mcmc_relocate(
-                        density,
-                        &mut self.set,
-                        &mut self.optimizer,
-                        &mut self.rng,
-                    ));
-                    // Unused by MCMC, but kept the size of the set for checkpoints.
-                    self.stats = DensityStats::new(self.set.len(), &self.device);
-                }
-            }
-            _ => {}
-        }
-        if density.resets_opacity_at(step) {
-            reset_opacity(&mut self.set, &mut self.optimizer);
-            self.opacity_resets += 1;
-        }
-        Ok(StepReport {
-            loss: scalar(photo.inner()),
-            density: report,
-        })
+        let parts = self.graph.outputs(&query);
+        GaussianSet::from_splats(&crate::scene::concatenate(
+            parts.into_iter().map(|(_, o)| o.splats).collect(),
+        ))
+    }
+
+    fn any_camera(&self) -> Camera {
+        self.views
+            .train
+            .first()
+            .or(self.views.test.first())
+            .map(|v| v.camera)
+            .expect("a view set has views")
+    }
+
+    fn settings(&self, camera: Camera) -> RasterSettings {
+        RasterSettings::new(
+            camera,
+            ColorMode::Sh {
+                degree: self.sh_degree(),
+            },
+        )
     }
 
     /// Renders the current Gaussians (no autodiff) from held-out view `k`.
     pub fn render_test(&self, k: usize) -> Result<Render, TrainError> {
-        let settings = RasterSettings::new(
-            self.views.test[k].camera,
-            ColorMode::Sh {
-                degree: self.sh_degree(),
-            },
-        );
-        Ok(splatzoo_rasterizer::rasterize(
-            &self.set.splats(),
-            self.background.clone(),
-            &settings,
-        )?)
+        let camera = self.views.test[k].camera;
+        let query = FrameQuery {
+            camera: &camera,
+            frame: 0,
+            time: 0.0,
+        };
+        let out = self
+            .graph
+            .render(&query, self.background.clone(), &self.settings(camera))?;
+        Ok(out.render)
     }
 
-    /// PSNR, SSIM (and LPIPS where given) averaged over the held-out views.
-    pub fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError> {
-        let (mut p, mut s, mut l) = (0.0, 0.0, 0.0);
-        for (k, view) in self.views.test.iter().enumerate() {
-            let image = self.render_test(k)?.color.clamp(0.0, 1.0);
-            p += psnr(image.clone(), view.image.clone());
-            s += scalar(ssim(image.clone(), view.image.clone()));
-            if let Some(lpips) = lpips {
-                l += scalar(lpips.distance(image, view.image.clone()));
-            }
+    fn assemble(config: StaticConfig, views: ViewSet, device: &Device) -> Result<Self, TrainError> {
+        let p = &views.points;
+        if p.positions.is_empty() {
+            return Err(TrainError::Config("the data gave no initial points".into()));
         }
-        let n = self.views.test.len().max(1) as f64;
-        Ok(Evaluation {
-            step: self.step,
-            psnr: p / n,
-            ssim: s / n,
-            lpips: lpips.map(|_| l / n),
-            gaussians: self.set.len(),
+        let set = GaussianSet::from_points(&p.positions, &p.colours, &p.sigmas, device);
+        let node = GaussianNode::new(
+            BACKGROUND,
+            set,
+            config.rates,
+            &config.densify,
+            views.extent,
+            config.seed ^ 0x3D65_0001,
+        );
+        let background = Tensor::<1>::from_floats(views.background.as_slice(), device);
+        Ok(Self {
+            rng: Rng(config.seed ^ 0x3D65_0000),
+            config,
+            views,
+            graph: SceneGraph::new().with(node),
+            step: 0,
+            order: Vec::new(),
+            background,
         })
     }
+}
 
-    /// Everything needed to continue exactly where this run is.
-    pub fn checkpoint(&self) -> Checkpoint {
-        let mut c = Checkpoint::default();
-        self.set.save(&mut c, "splats");
-        self.optimizer.save(&mut c, "optimizer");
-        self.stats.save(&mut c, "densify");
-        c.put_meta("format", FORMAT);
-        c.put_meta("step", self.step);
-        c.put_meta("rng", self.rng.0);
-        c.put_meta("opacity_resets", self.opacity_resets);
-        let order: Vec<String> = self.order.iter().map(|i| i.to_string()).collect();
-        c.put_meta("order", order.join(","));
-        c.put_meta("config", crate::config::to_toml(&self.config));
-        c
+impl Method for StaticTrainer {
+    const NAME: &'static str = "3dgs";
+    const FORMAT: &'static str = "splatzoo-3dgs-2";
+    const ABOUT: &'static str =
+        "Static-scene 3D Gaussian splatting (synthetic default or a nerfstudio folder)";
+    type Config = StaticConfig;
+    type Args = StaticArgs;
+
+    fn overrides(args: &StaticArgs) -> Vec<String> {
+        let mut sets = Vec::new();
+        if let Some(path) = &args.data {
+            sets.push("data.source=\"nerfstudio\"".into());
+            sets.push(format!(
+                "data.path={}",
+                toml::Value::from(path.display().to_string())
+            ));
+        }
+        if let Some(size) = args.size {
+            sets.push(format!("data.size={size}"));
+        }
+        if let Some(strategy) = args.densify {
+            let name = format!("{strategy:?}").to_lowercase();
+            sets.push(format!("densify.strategy=\"{name}\""));
+        }
+        sets
     }
 
-    /// The configuration a checkpoint was written with.
-    pub fn checkpoint_config(checkpoint: &Checkpoint) -> Result<StaticConfig, CheckpointError> {
-        let text = checkpoint.meta("config")?;
-        toml::from_str(text).map_err(|e| CheckpointError::Entry {
-            file: checkpoint.origin.clone(),
-            name: "config".into(),
-            problem: format!("not a train-3dgs configuration: {e}"),
-        })
+    /// Loads the data and initialises the Gaussians from its points.
+    fn new(config: StaticConfig, device: &Device) -> Result<Self, TrainError> {
+        config.validate()?;
+        let views = ViewSet::load(&config.data, device)?;
+        Self::assemble(config, views, device)
     }
 
-    /// Continues from `checkpoint` with `config` (normally [`Self::checkpoint_config`], perhaps
-    /// with overrides such as more iterations).
-    pub fn resume(
+    fn resume(
         config: StaticConfig,
         checkpoint: &Checkpoint,
         device: &Device,
     ) -> Result<Self, TrainError> {
-        validate(&config)?;
-        let format = checkpoint.meta("format")?;
-        if format != FORMAT {
-            return Err(CheckpointError::Entry {
-                file: checkpoint.origin.clone(),
-                name: "format".into(),
-                problem: format!("`{format}`, expected `{FORMAT}` (a train-3dgs checkpoint)"),
-            }
-            .into());
-        }
+        config.validate()?;
         let views = ViewSet::load(&config.data, device)?;
-        let set = GaussianSet::load(checkpoint, "splats", device)?;
-        let optimizer =
-            GaussianOptimizer::load(checkpoint, "optimizer", &set, config.rates, views.extent)?;
-        let stats = DensityStats::load(checkpoint, "densify", set.len(), device)?;
-        let rng = Rng(checkpoint.meta_parsed("rng")?);
-        let mut trainer = Self::assemble(config, views, set, optimizer, stats, rng, device);
+        let mut trainer = Self::assemble(config, views, device)?;
+        trainer.graph.load(checkpoint, device)?;
+        trainer.rng = Rng(checkpoint.meta_parsed("rng")?);
         trainer.step = checkpoint.meta_parsed("step")?;
-        trainer.opacity_resets = checkpoint.meta_parsed("opacity_resets")?;
         let order = checkpoint.meta("order")?;
         let train_views = trainer.views.train.len();
         trainer.order = order
@@ -347,20 +274,104 @@ impl StaticTrainer {
         Ok(trainer)
     }
 
-    pub fn device(&self) -> &Device {
-        &self.device
+    fn steps(&self) -> usize {
+        self.step
     }
-}
 
-fn validate(config: &StaticConfig) -> Result<(), TrainError> {
-    if config.iterations == 0 {
-        return Err(TrainError::Config("iterations ≥ 1".into()));
+    fn describe(&self) -> String {
+        format!(
+            "{} train / {} held-out views, {} Gaussians, extent {:.2} m",
+            self.views.train.len(),
+            self.views.test.len(),
+            self.graph.gaussians(),
+            self.views.extent,
+        )
     }
-    if config.sh_degree > 3 {
-        return Err(TrainError::Config("sh_degree ≤ 3".into()));
+
+    /// One optimiser step on the next training view, then density control where scheduled.
+    fn step(&mut self) -> Result<StepReport, TrainError> {
+        if self.order.is_empty() {
+            self.order = (0..self.views.train.len()).collect();
+            self.rng.shuffle(&mut self.order);
+        }
+        let view = &self.views.train[self.order.pop().expect("refilled above")];
+        let settings = self.settings(view.camera);
+        self.graph.begin_step();
+        let query = FrameQuery {
+            camera: &view.camera,
+            frame: 0,
+            time: 0.0,
+        };
+        let out = self
+            .graph
+            .render(&query, self.background.clone().autodiff(), &settings)?;
+        let photo = photometric(
+            out.render.color.clone(),
+            view.image.clone().autodiff(),
+            self.config.lambda_dssim,
+        );
+        let loss = match self.graph.regularisers() {
+            Some(r) => photo.clone() + r,
+            None => photo.clone(),
+        };
+        let grads = loss.backward();
+        let progress = self.step as f64 / self.config.iterations as f64;
+        let reports = self.graph.end_step(&grads, &[out], self.step, progress);
+        self.step += 1;
+        let note = (!reports.is_empty()).then(|| {
+            let parts: Vec<String> = reports
+                .iter()
+                .map(|(node, d)| format!("{node}: density {d:?}"))
+                .collect();
+            format!("{} → {} Gaussians", parts.join("; "), self.graph.gaussians())
+        });
+        Ok(StepReport {
+            loss: scalar(photo.inner()),
+            note,
+        })
     }
-    if !(0.0..=1.0).contains(&config.lambda_dssim) {
-        return Err(TrainError::Config("lambda_dssim in [0, 1]".into()));
+
+    /// PSNR, SSIM (and LPIPS where given) averaged over the held-out views.
+    fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError> {
+        let mut sum = ScoreSum::default();
+        for (k, view) in self.views.test.iter().enumerate() {
+            let image = self.render_test(k)?.color.clamp(0.0, 1.0);
+            sum.add(
+                psnr(image.clone(), view.image.clone()),
+                scalar(ssim(image.clone(), view.image.clone())),
+                lpips.map(|l| scalar(l.distance(image, view.image.clone()))),
+            );
+        }
+        Ok(Evaluation::new(self.step, sum.mean()).with("gaussians", self.graph.gaussians()))
     }
-    Ok(())
+
+    fn checkpoint(&self) -> Checkpoint {
+        let mut c = Checkpoint::default();
+        self.graph.save(&mut c);
+        c.put_meta("rng", self.rng.0);
+        let order: Vec<String> = self.order.iter().map(|i| i.to_string()).collect();
+        c.put_meta("order", order.join(","));
+        c
+    }
+
+    /// `point_cloud.ply` and the held-out renders (render | truth).
+    fn finish(
+        &self,
+        run: &RunDir,
+        _say: &mut dyn Say,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError> {
+        write_ply(&run.file("point_cloud.ply"), &self.gaussian_set())?;
+        let renders = run.file("renders");
+        std::fs::create_dir_all(&renders).map_err(|e| {
+            splatzoo_datasets::DatasetError::file(&renders, format!("cannot create ({e})"))
+        })?;
+        for (k, view) in self.views.test.iter().enumerate() {
+            let render = self.render_test(k)?;
+            let pair = side_by_side(&[srgb_image(&render.color), srgb_image(&view.image)]);
+            write_png(&renders.join(format!("{}.png", view.name)), &pair)?;
+        }
+        let mut summary = serde_json::Map::new();
+        summary.insert("gaussians".into(), self.graph.gaussians().into());
+        Ok(summary)
+    }
 }

@@ -331,8 +331,7 @@ pub fn save_npz(model: &BodyModel, path: &Path) -> Result<(), BodyModelError> {
     let file = path.display().to_string();
     let v = model.vertex_count() as u64;
     let j = model.joint_count() as u64;
-    let tmp = path.with_extension("npz.partial");
-    let write = || -> std::io::Result<()> {
+    let write = |tmp: &Path| -> std::io::Result<()> {
         let mut npz = npyz::npz::NpzWriter::create(&tmp)?;
         {
             let mut put = |name: &str, shape: &[u64], values: &mut dyn Iterator<Item = f64>| {
@@ -391,11 +390,9 @@ pub fn save_npz(model: &BodyModel, path: &Path) -> Result<(), BodyModelError> {
         }
         let mut inner = npz.zip_writer().finish().map_err(std::io::Error::other)?;
         std::io::Write::flush(&mut inner)?;
-        inner.get_ref().sync_all()?;
-        std::fs::rename(&tmp, path)
+        inner.get_ref().sync_all()
     };
-    write().map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
+    crate::files::write_atomically(path, write).map_err(|e| {
         BodyModelError::File {
             file,
             problem: format!("cannot write ({e})"),

@@ -178,13 +178,10 @@ pub fn encode(tensors: &Tensors, metadata: &BTreeMap<String, String>) -> Result<
     safetensors::serialize(views, metadata).map_err(|e| format!("cannot serialise ({e})"))
 }
 
-/// Writes tensors as an F32 safetensors file (fixtures, exports), via a sibling file renamed
-/// into place.
+/// Writes tensors as an F32 safetensors file (fixtures, exports), atomically.
 pub fn write_safetensors(path: &Path, tensors: &Tensors) -> std::io::Result<()> {
     let bytes = encode(tensors, &BTreeMap::new()).map_err(std::io::Error::other)?;
-    let tmp = path.with_extension("safetensors.partial");
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(&tmp, path)
+    crate::files::write_bytes(path, &bytes)
 }
 
 /// Every float parameter of `module` under its dotted field path (`encoder.lateral.0.weight`),

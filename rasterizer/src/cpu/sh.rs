@@ -3,29 +3,9 @@
 
 use super::real::Real;
 
-const C0: f64 = 0.282_094_791_773_878_14;
-const C1: f64 = 0.488_602_511_902_919_9;
-const C2: [f64; 5] = [
-    1.092_548_430_592_079_2,
-    -1.092_548_430_592_079_2,
-    0.315_391_565_252_520_05,
-    -1.092_548_430_592_079_2,
-    0.546_274_215_296_039_6,
-];
-const C3: [f64; 7] = [
-    -0.590_043_589_926_643_5,
-    2.890_611_442_640_554,
-    -0.457_045_799_464_465_8,
-    0.373_176_332_590_115_4,
-    -0.457_045_799_464_465_8,
-    1.445_305_721_320_277,
-    -0.590_043_589_926_643_5,
-];
+use crate::sh::{SH_C0 as C0, SH_C1 as C1, SH_C2 as C2, SH_C3 as C3};
 
-/// Number of coefficients of degree `degree`: `(degree + 1)²`.
-pub fn coeff_count(degree: u32) -> usize {
-    ((degree + 1) * (degree + 1)) as usize
-}
+pub use crate::sh::coeff_count;
 
 /// Basis values `Y_k(d)` for `k < (degree + 1)²` at unit direction `d`, and, if `grad` is given,
 /// their gradients `∂Y_k/∂d`.

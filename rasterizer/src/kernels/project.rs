@@ -8,20 +8,23 @@ use cubecl::prelude::*;
 /// Colour mode passed at compile time: SH degree `0..=3`, or this for free features.
 pub const FEATURES: u32 = 99;
 
-const C0: f32 = 0.282_094_8;
-const C1: f32 = 0.488_602_5;
-const C2_0: f32 = 1.092_548_4;
-const C2_1: f32 = -1.092_548_4;
-const C2_2: f32 = 0.315_391_6;
-const C2_3: f32 = -1.092_548_4;
-const C2_4: f32 = 0.546_274_2;
-const C3_0: f32 = -0.590_043_6;
-const C3_1: f32 = 2.890_611_4;
-const C3_2: f32 = -0.457_045_8;
-const C3_3: f32 = 0.373_176_3;
-const C3_4: f32 = -0.457_045_8;
-const C3_5: f32 = 1.445_305_7;
-const C3_6: f32 = -0.590_043_6;
+use crate::sh::{SH_C0, SH_C1, SH_C2, SH_C3};
+
+// The shared constants (`crate::sh`) as f32 for the kernel.
+const C0: f32 = SH_C0 as f32;
+const C1: f32 = SH_C1 as f32;
+const C2_0: f32 = SH_C2[0] as f32;
+const C2_1: f32 = SH_C2[1] as f32;
+const C2_2: f32 = SH_C2[2] as f32;
+const C2_3: f32 = SH_C2[3] as f32;
+const C2_4: f32 = SH_C2[4] as f32;
+const C3_0: f32 = SH_C3[0] as f32;
+const C3_1: f32 = SH_C3[1] as f32;
+const C3_2: f32 = SH_C3[2] as f32;
+const C3_3: f32 = SH_C3[3] as f32;
+const C3_4: f32 = SH_C3[4] as f32;
+const C3_5: f32 = SH_C3[5] as f32;
+const C3_6: f32 = SH_C3[6] as f32;
 
 #[cube]
 fn bad(v: f32) -> bool {

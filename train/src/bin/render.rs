@@ -19,6 +19,8 @@ use splatzoo_datasets::nerfstudio::read_transforms;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, rasterize};
 use splatzoo_train::backend::Backend;
 use splatzoo_train::checkpoint::Checkpoint;
+use splatzoo_train::harness::{Method, check_format};
+use splatzoo_train::static_scene::{BACKGROUND, StaticTrainer};
 use splatzoo_train::gaussians::GaussianSet;
 use splatzoo_train::images::{srgb_image, write_alpha_png, write_depth_png, write_gif, write_png};
 use splatzoo_train::ply::read_ply;
@@ -35,7 +37,7 @@ struct Args {
         required_unless_present = "checkpoint"
     )]
     ply: Option<PathBuf>,
-    /// A training checkpoint (its `splats.*` tensors).
+    /// A `train-3dgs` checkpoint (its `background.splats.*` tensors).
     #[arg(long)]
     checkpoint: Option<PathBuf>,
     /// A nerfstudio-style transforms.json: one PNG set per frame.
@@ -80,7 +82,9 @@ fn run(args: Args) -> Result<(), String> {
         (Some(ply), _) => read_ply(ply, &device).map_err(|e| e.to_string())?,
         (None, Some(path)) => {
             let checkpoint = Checkpoint::read(path).map_err(|e| e.to_string())?;
-            GaussianSet::load(&checkpoint, "splats", &device).map_err(|e| e.to_string())?
+            check_format(&checkpoint, StaticTrainer::FORMAT).map_err(|e| e.to_string())?;
+            GaussianSet::load(&checkpoint, &format!("{BACKGROUND}.splats"), &device)
+                .map_err(|e| e.to_string())?
         }
         (None, None) => unreachable!("clap requires one"),
     };

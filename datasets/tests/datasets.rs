@@ -1,0 +1,11 @@
+//! The datasets crate's integration tests, one binary: public-format loaders on written
+//! fixtures, the pose-body command, pose sequences, the CPU mesh renderer, synthetic scenes and
+//! their export.
+
+mod formats;
+mod pose_body_cli;
+mod pose_sequence;
+mod render;
+mod scenes;
+mod synth;
+mod synth_export;

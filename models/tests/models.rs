@@ -1,0 +1,13 @@
+//! The models crate's integration tests, one binary: mesh anchors, the built-in body, linear
+//! blend skinning, shared networks (ResNet, FPN, weight files), body-model files (npz, pkl),
+//! skeleton priors and rotations.
+
+mod common;
+mod anchor;
+mod builtin;
+mod lbs;
+mod networks;
+mod npz;
+mod pkl;
+mod priors;
+mod rotation;

@@ -1,0 +1,10 @@
+//! The rasterizer's integration tests, one binary: every backend against the dense reference
+//! (values and gradients), CPU gradients against finite differences, determinism and camera
+//! pose handling, numerical extremes, and the wgpu (CubeCL) kernels.
+
+mod common;
+mod against_reference;
+mod cpu_gradients;
+mod determinism_and_pose;
+mod extremes;
+mod gpu;

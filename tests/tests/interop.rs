@@ -1,0 +1,228 @@
+//! Cross-crate interop: the workspace's binaries end to end, their outputs read back by the
+//! project's readers (`.ply`, checkpoints with their format tags, `metrics.json` as the
+//! harness's history, PNG renders, ONNX graphs in tract), and checkpoints carried from one
+//! process to another (resumed bit-exactly on the CPU, read by `render` and `drive-nlf`).
+
+use burn::tensor::Device;
+use splatzoo_nlf_gs::onnx;
+use splatzoo_nlf_gs::trainer::NlfTrainer;
+use splatzoo_train::checkpoint::Checkpoint;
+use splatzoo_train::harness::{History, Method, check_format};
+use splatzoo_train::ply::read_ply;
+use splatzoo_train::static_scene::StaticTrainer;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A workspace binary beside this test's executable (`target/<profile>/<name>`).
+fn binary(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("the test executable");
+    let dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("target/<profile>/deps");
+    let path = dir.join(name);
+    assert!(
+        path.exists(),
+        "{} is missing: run `cargo test --workspace`, which builds every binary",
+        path.display()
+    );
+    path
+}
+
+fn run(dir: &Path, name: &str, args: &[&str]) -> Output {
+    Command::new(binary(name))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("the binary starts")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn history(path: &Path) -> History {
+    let text = std::fs::read_to_string(path).expect("metrics.json");
+    serde_json::from_str(&text).expect("metrics.json is a harness history")
+}
+
+/// Every PNG in `dir` decodes and is not blank.
+fn renders_decode(dir: &Path) -> usize {
+    let mut count = 0;
+    for entry in std::fs::read_dir(dir).expect("renders/") {
+        let path = entry.unwrap().path();
+        let image = image::open(&path).expect("a PNG").to_rgb8();
+        let first = image.get_pixel(0, 0);
+        assert!(
+            image.pixels().any(|p| p != first),
+            "{} is one colour",
+            path.display()
+        );
+        count += 1;
+    }
+    count
+}
+
+/// Tensors of two checkpoints, bit for bit.
+fn same_tensors(a: &Path, b: &Path) {
+    let (a, b) = (Checkpoint::read(a).unwrap(), Checkpoint::read(b).unwrap());
+    assert_eq!(
+        a.tensors.keys().collect::<Vec<_>>(),
+        b.tensors.keys().collect::<Vec<_>>()
+    );
+    for (name, tensor) in &a.tensors {
+        assert!(&b.tensors[name] == tensor, "{name} differs");
+    }
+}
+
+#[test]
+fn train_3dgs_default_outputs_read_back_and_resume_across_processes() {
+    let dir = tempfile::tempdir().unwrap();
+    let straight = run(dir.path(), "train-3dgs", &["--iterations", "2", "--name", "a"]);
+    assert!(straight.status.success(), "{}", text(&straight));
+    let out = dir.path().join("runs/3dgs/a");
+    let checkpoint = Checkpoint::read(&out.join("checkpoint.safetensors")).unwrap();
+    check_format(&checkpoint, StaticTrainer::FORMAT).unwrap();
+    assert!(check_format(&checkpoint, NlfTrainer::FORMAT).is_err());
+    let set = read_ply(&out.join("point_cloud.ply"), &Device::flex()).unwrap();
+    let metrics = history(&out.join("metrics.json"));
+    assert_eq!(metrics.method, "3dgs");
+    let last = metrics.evaluations.last().expect("an evaluation at the end");
+    assert_eq!(last.step, 2);
+    assert_eq!(last.extra["gaussians"].as_u64(), Some(set.len() as u64));
+    assert!(last.scores.psnr.is_finite());
+    assert_eq!(renders_decode(&out.join("renders")), 6);
+
+    // One step here, the next in another process: the same state as the straight run.
+    let first = run(
+        dir.path(),
+        "train-3dgs",
+        &["--iterations", "2", "--name", "b", "--stop-after", "1"],
+    );
+    assert_eq!(first.status.code(), Some(130), "{}", text(&first));
+    let saved = dir.path().join("runs/3dgs/b/checkpoint.safetensors");
+    let second = run(
+        dir.path(),
+        "train-3dgs",
+        &["--name", "b", "--resume", saved.to_str().unwrap()],
+    );
+    assert!(second.status.success(), "{}", text(&second));
+    same_tensors(&out.join("checkpoint.safetensors"), &saved);
+
+    // `render` reads the checkpoint; `drive-nlf` refuses it by its format tag.
+    let render = run(
+        dir.path(),
+        "render",
+        &[
+            "--checkpoint",
+            saved.to_str().unwrap(),
+            "--turntable",
+            "2",
+            "--out",
+            "turn",
+        ],
+    );
+    assert!(render.status.success(), "{}", text(&render));
+    assert!(dir.path().join("turn/turntable.gif").exists());
+    let refused = run(
+        dir.path(),
+        "drive-nlf",
+        &["--checkpoint", saved.to_str().unwrap()],
+    );
+    assert!(
+        !refused.status.success() && text(&refused).contains(NlfTrainer::FORMAT),
+        "{}",
+        text(&refused)
+    );
+}
+
+#[test]
+fn train_nlf_default_outputs_read_back_and_resume_across_processes() {
+    let dir = tempfile::tempdir().unwrap();
+    let straight = run(dir.path(), "train-nlf", &["--iterations", "2", "--name", "a"]);
+    assert!(straight.status.success(), "{}", text(&straight));
+    let out = dir.path().join("runs/nlf/a");
+    let checkpoint = Checkpoint::read(&out.join("checkpoint.safetensors")).unwrap();
+    check_format(&checkpoint, NlfTrainer::FORMAT).unwrap();
+    let metrics = history(&out.join("metrics.json"));
+    assert_eq!(metrics.method, "nlf");
+    assert!(metrics.baselines.contains_key("mean_colour"));
+    let last = metrics.evaluations.last().expect("an evaluation at the end");
+    assert!(last.extra.contains_key("at_input_views"));
+    assert_eq!(renders_decode(&out.join("renders")), 9);
+    let graphs = out.join("onnx");
+    for (graph, names) in [("encoder", onnx::ENCODER_IO), ("decoder", onnx::DECODER_IO)] {
+        let path = graphs.join(format!("{graph}.onnx"));
+        let (inputs, outputs) = onnx::io_names(&path).unwrap();
+        assert_eq!((inputs, outputs), (vec![names.0.to_owned()], vec![names.1.to_owned()]));
+        let error = onnx::verify(&path, &graphs.join(format!("{graph}.vectors.safetensors")));
+        assert!(error.unwrap() < 1e-3, "{graph}");
+    }
+
+    // A small network for the cross-process resume.
+    let small = [
+        "--set",
+        "onnx=false",
+        "--iterations",
+        "2",
+        "--set",
+        "train_subjects=2",
+        "--set",
+        "test_subjects=1",
+        "--set",
+        "size=32",
+        "--set",
+        "network.fpn_channels=8",
+        "--set",
+        "network.gaussians_per_face=1",
+    ];
+    let whole = run(dir.path(), "train-nlf", &[&small[..], &["--name", "c"]].concat());
+    assert!(whole.status.success(), "{}", text(&whole));
+    let first = run(
+        dir.path(),
+        "train-nlf",
+        &[&small[..], &["--name", "b", "--stop-after", "1"]].concat(),
+    );
+    assert_eq!(first.status.code(), Some(130), "{}", text(&first));
+    let saved = dir.path().join("runs/nlf/b/checkpoint.safetensors");
+    let second = run(
+        dir.path(),
+        "train-nlf",
+        &["--name", "b", "--resume", saved.to_str().unwrap()],
+    );
+    assert!(second.status.success(), "{}", text(&second));
+    same_tensors(
+        &dir.path().join("runs/nlf/c/checkpoint.safetensors"),
+        &saved,
+    );
+
+    let drive = run(
+        dir.path(),
+        "drive-nlf",
+        &[
+            "--checkpoint",
+            saved.to_str().unwrap(),
+            "--frames",
+            "2",
+            "--out",
+            "drive",
+        ],
+    );
+    assert!(drive.status.success(), "{}", text(&drive));
+    assert!(dir.path().join("drive/drive.gif").exists());
+    // `render` refuses an NLF checkpoint by its format tag.
+    let refused = run(
+        dir.path(),
+        "render",
+        &["--checkpoint", saved.to_str().unwrap(), "--turntable", "2"],
+    );
+    assert!(
+        !refused.status.success() && text(&refused).contains(StaticTrainer::FORMAT),
+        "{}",
+        text(&refused)
+    );
+}

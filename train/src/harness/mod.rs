@@ -1,0 +1,147 @@
+//! The contract every `train-<method>` binary is built on, and the one CLI that runs it.
+//!
+//! A method implements [`Method`]: it is created from its configuration ([`Method::new`]) or
+//! from a checkpoint ([`Method::resume`]), takes optimiser steps ([`Method::step`]), evaluates
+//! on held-out data ([`Method::evaluate`]), writes its whole state into a [`Checkpoint`]
+//! ([`Method::checkpoint`]) and, at the end, its exports ([`Method::finish`]). Everything
+//! around that — `--config`/`--set`/`--print-config`/`--resume`/`--name`/`--backend`, the run
+//! directory, the log, the progress bar, Ctrl-C, the evaluation and checkpoint schedule, the
+//! `metrics.json` policy and the checkpoint's format tag — lives once in [`cli`], so a
+//! `train-<method>` binary is `fn main() -> ExitCode { cli::main::<MyMethod>() }`.
+
+pub mod cli;
+mod metrics;
+
+pub use metrics::{Evaluation, History, ScoreSum, Scores};
+
+use crate::backend::Backend;
+use crate::checkpoint::{Checkpoint, CheckpointError};
+use crate::error::TrainError;
+use crate::lpips::Lpips;
+use crate::run_dir::RunDir;
+use burn::tensor::Device;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use std::path::Path;
+
+/// The knobs the harness reads from every method's configuration (the rest is the method's).
+/// `backend` and `iterations` must be top-level keys (`--backend` and `--iterations` set them).
+pub trait MethodConfig:
+    Serialize + DeserializeOwned + Default + Clone + PartialEq + std::fmt::Debug
+{
+    fn backend(&self) -> Backend;
+    fn iterations(&self) -> usize;
+    /// Held-out evaluation every this many steps (and always at the end; 0: only then).
+    fn eval_every(&self) -> usize;
+    /// Checkpoint every this many steps (0: only at the end and on Ctrl-C).
+    fn checkpoint_every(&self) -> usize;
+    /// LPIPS backbone weights, when the user gave them.
+    fn lpips_weights(&self) -> Option<&Path>;
+    /// Every range a knob must respect, checked before anything is loaded.
+    fn validate(&self) -> Result<(), TrainError>;
+}
+
+/// One step's outcome, for the progress bar and the log.
+#[derive(Debug, Clone, Default)]
+pub struct StepReport {
+    pub loss: f64,
+    /// Anything worth a log line (density control, a schedule change).
+    pub note: Option<String>,
+}
+
+/// Where a method's messages go (the terminal, above the progress bar, and `log.txt`).
+pub trait Say {
+    fn say(&mut self, line: &str);
+}
+
+pub trait Method: Sized {
+    /// The run directory's parent (`runs/<NAME>/<name>/`) and `metrics.json`'s `method`.
+    const NAME: &'static str;
+    /// The format tag written into every checkpoint and checked on every read.
+    const FORMAT: &'static str;
+    /// One line for `--help`.
+    const ABOUT: &'static str;
+    type Config: MethodConfig;
+    /// Method-specific command-line shorthands (each becomes `--set` overrides).
+    type Args: clap::Args + std::fmt::Debug;
+
+    /// The `--set` overrides the method's shorthands stand for.
+    fn overrides(args: &Self::Args) -> Vec<String>;
+    /// A fresh run.
+    fn new(config: Self::Config, device: &Device) -> Result<Self, TrainError>;
+    /// Continues from `checkpoint` (its format already checked) with `config`, which is the
+    /// checkpoint's configuration with the user's overrides on top.
+    fn resume(
+        config: Self::Config,
+        checkpoint: &Checkpoint,
+        device: &Device,
+    ) -> Result<Self, TrainError>;
+    /// Optimiser steps taken.
+    fn steps(&self) -> usize;
+    /// The line printed once the method is ready (data, sizes).
+    fn describe(&self) -> String;
+    /// Reference scores computed once at the start of a fresh run (`metrics.json`'s
+    /// `baselines`), by name.
+    fn baselines(&self, _lpips: Option<&Lpips>) -> Result<Vec<(String, Scores)>, TrainError> {
+        Ok(Vec::new())
+    }
+    fn step(&mut self) -> Result<StepReport, TrainError>;
+    /// Held-out scores now.
+    fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError>;
+    /// The method's whole state (the harness adds the format tag, the configuration, the step
+    /// and the metrics history).
+    fn checkpoint(&self) -> Checkpoint;
+    /// Exports at the end of training (renders, `.ply`, ONNX, …) into `run`; returns extra
+    /// summary fields for `metrics.json`.
+    fn finish(
+        &self,
+        run: &RunDir,
+        say: &mut dyn Say,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError>;
+}
+
+/// Refuses a checkpoint whose format tag is not `format` (every reader calls this first).
+pub fn check_format(checkpoint: &Checkpoint, format: &str) -> Result<(), CheckpointError> {
+    let found = checkpoint.meta("format")?;
+    if found == format {
+        Ok(())
+    } else {
+        Err(CheckpointError::Entry {
+            file: checkpoint.origin.clone(),
+            name: "format".into(),
+            problem: format!("`{found}`, expected `{format}`"),
+        })
+    }
+}
+
+/// The configuration a checkpoint of method `M` was written with (format checked).
+pub fn checkpoint_config<M: Method>(checkpoint: &Checkpoint) -> Result<M::Config, TrainError> {
+    check_format(checkpoint, M::FORMAT)?;
+    let text = checkpoint.meta("config")?;
+    toml::from_str(text).map_err(|e| {
+        CheckpointError::Entry {
+            file: checkpoint.origin.clone(),
+            name: "config".into(),
+            problem: format!("not a {} configuration: {e}", M::NAME),
+        }
+        .into()
+    })
+}
+
+/// The checkpoint a run writes: the method's state plus the format tag, the configuration, the
+/// step and the metrics history.
+pub fn full_checkpoint<M: Method>(
+    method: &M,
+    config: &M::Config,
+    history: &History,
+) -> Checkpoint {
+    let mut checkpoint = method.checkpoint();
+    checkpoint.put_meta("format", M::FORMAT);
+    checkpoint.put_meta("config", crate::config::to_toml(config));
+    checkpoint.put_meta("step", method.steps());
+    checkpoint.put_meta(
+        "metrics",
+        serde_json::to_string(history).expect("plain data serialises"),
+    );
+    checkpoint
+}
