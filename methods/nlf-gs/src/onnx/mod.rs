@@ -234,7 +234,7 @@ To place the avatar on any pose of the mesh, build each face's frame `F = [t b n
 ## Test vectors
 `encoder.vectors.safetensors` holds inputs `images.k` and Burn's outputs `features.k`;
 `decoder.vectors.safetensors` holds `fused_features.k` and `attributes.k`. Feed each input by
-its name (onnxruntime: `session.run(["features"], {{"images": x}})`); a runtime should reproduce
+its name (onnxruntime: `session.run([\"features\"], {{\"images\": x}})`); a runtime should reproduce
 the outputs to about 1e-4.
 ",
         depth = config.depth,

@@ -162,7 +162,7 @@ fn export_refuses_misshapen_samples() {
             dir.path(),
         )
         .unwrap_err();
-        assert!(error.contains(&message), "{error}");
+        assert!(error.to_string().contains(&message), "{error}");
     }
     assert!(
         !dir.path().join("encoder.onnx").exists(),

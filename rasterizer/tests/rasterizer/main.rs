@@ -8,3 +8,4 @@ mod cpu_gradients;
 mod determinism_and_pose;
 mod extremes;
 mod gpu;
+mod sh_basis;
