@@ -82,7 +82,11 @@ fn same_tensors(a: &Path, b: &Path) {
 #[test]
 fn train_3dgs_default_outputs_read_back_and_resume_across_processes() {
     let dir = tempfile::tempdir().unwrap();
-    let straight = run(dir.path(), "train-3dgs", &["--iterations", "2", "--name", "a"]);
+    let straight = run(
+        dir.path(),
+        "train-3dgs",
+        &["--iterations", "2", "--name", "a"],
+    );
     assert!(straight.status.success(), "{}", text(&straight));
     let out = dir.path().join("runs/3dgs/a");
     let checkpoint = Checkpoint::read(&out.join("checkpoint.safetensors")).unwrap();
@@ -91,7 +95,10 @@ fn train_3dgs_default_outputs_read_back_and_resume_across_processes() {
     let set = read_ply(&out.join("point_cloud.ply"), &Device::flex()).unwrap();
     let metrics = history(&out.join("metrics.json"));
     assert_eq!(metrics.method, "3dgs");
-    let last = metrics.evaluations.last().expect("an evaluation at the end");
+    let last = metrics
+        .evaluations
+        .last()
+        .expect("an evaluation at the end");
     assert_eq!(last.step, 2);
     assert_eq!(last.extra["gaussians"].as_u64(), Some(set.len() as u64));
     assert!(last.scores.psnr.is_finite());
@@ -143,7 +150,11 @@ fn train_3dgs_default_outputs_read_back_and_resume_across_processes() {
 #[test]
 fn train_nlf_default_outputs_read_back_and_resume_across_processes() {
     let dir = tempfile::tempdir().unwrap();
-    let straight = run(dir.path(), "train-nlf", &["--iterations", "2", "--name", "a"]);
+    let straight = run(
+        dir.path(),
+        "train-nlf",
+        &["--iterations", "2", "--name", "a"],
+    );
     assert!(straight.status.success(), "{}", text(&straight));
     let out = dir.path().join("runs/nlf/a");
     let checkpoint = Checkpoint::read(&out.join("checkpoint.safetensors")).unwrap();
@@ -151,14 +162,20 @@ fn train_nlf_default_outputs_read_back_and_resume_across_processes() {
     let metrics = history(&out.join("metrics.json"));
     assert_eq!(metrics.method, "nlf");
     assert!(metrics.baselines.contains_key("mean_colour"));
-    let last = metrics.evaluations.last().expect("an evaluation at the end");
+    let last = metrics
+        .evaluations
+        .last()
+        .expect("an evaluation at the end");
     assert!(last.extra.contains_key("at_input_views"));
     assert_eq!(renders_decode(&out.join("renders")), 9);
     let graphs = out.join("onnx");
     for (graph, names) in [("encoder", onnx::ENCODER_IO), ("decoder", onnx::DECODER_IO)] {
         let path = graphs.join(format!("{graph}.onnx"));
         let (inputs, outputs) = onnx::io_names(&path).unwrap();
-        assert_eq!((inputs, outputs), (vec![names.0.to_owned()], vec![names.1.to_owned()]));
+        assert_eq!(
+            (inputs, outputs),
+            (vec![names.0.to_owned()], vec![names.1.to_owned()])
+        );
         let error = onnx::verify(&path, &graphs.join(format!("{graph}.vectors.safetensors")));
         assert!(error.unwrap() < 1e-3, "{graph}");
     }
@@ -180,7 +197,11 @@ fn train_nlf_default_outputs_read_back_and_resume_across_processes() {
         "--set",
         "network.gaussians_per_face=1",
     ];
-    let whole = run(dir.path(), "train-nlf", &[&small[..], &["--name", "c"]].concat());
+    let whole = run(
+        dir.path(),
+        "train-nlf",
+        &[&small[..], &["--name", "c"]].concat(),
+    );
     assert!(whole.status.success(), "{}", text(&whole));
     let first = run(
         dir.path(),

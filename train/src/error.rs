@@ -3,8 +3,8 @@
 
 use crate::checkpoint::CheckpointError;
 use crate::config::ConfigError;
-use crate::views::DataError;
 use crate::ply::PlyError;
+use crate::views::DataError;
 use splatzoo_datasets::DatasetError;
 use splatzoo_models::networks::weights::WeightsError;
 use splatzoo_rasterizer::RasterError;

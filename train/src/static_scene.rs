@@ -323,7 +323,11 @@ impl Method for StaticTrainer {
                 .iter()
                 .map(|(node, d)| format!("{node}: density {d:?}"))
                 .collect();
-            format!("{} → {} Gaussians", parts.join("; "), self.graph.gaussians())
+            format!(
+                "{} → {} Gaussians",
+                parts.join("; "),
+                self.graph.gaussians()
+            )
         });
         Ok(StepReport {
             loss: scalar(photo.inner()),

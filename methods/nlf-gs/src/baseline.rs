@@ -4,10 +4,10 @@
 //! full opacity, and an isotropic scale from the mesh's mean spacing of Gaussians.
 
 use crate::data::NlfSubject;
-use burn::tensor::Tensor;
-use splatzoo_models::anchor::{MeshAnchors, anchored_positions};
 use crate::network::PosedGaussians;
 use crate::query::{Fusion, project, sample_and_fuse, weights};
+use burn::tensor::Tensor;
+use splatzoo_models::anchor::{MeshAnchors, anchored_positions};
 use splatzoo_models::rotation::matrix_to_quaternion;
 
 use splatzoo_rasterizer::sh::SH_C0;

@@ -4,14 +4,14 @@
 //! in the protocol. Each subject carries its posed body mesh and, per input view, the
 //! body's depth (for the occlusion test of Eq. 4).
 
+use crate::network::NlfInputs;
+use crate::query::Views;
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::image_io::linear_to_srgb;
 use splatzoo_datasets::synth::rig::CameraTrack;
 use splatzoo_datasets::synth::scene::body_label;
 use splatzoo_datasets::synth::{Preset, SceneConfig};
 use splatzoo_models::anchor::MeshAnchors;
-use crate::network::NlfInputs;
-use crate::query::Views;
 use splatzoo_rasterizer::Camera;
 
 /// Ring positions of the inputs and the targets (of six, 60° apart).
@@ -164,9 +164,7 @@ impl NlfSubject {
 }
 
 /// A posed avatar as the rasterizer's splats (degree-0 SH colour).
-pub fn posed_splats(
-    p: crate::network::PosedGaussians,
-) -> splatzoo_rasterizer::Splats {
+pub fn posed_splats(p: crate::network::PosedGaussians) -> splatzoo_rasterizer::Splats {
     splatzoo_rasterizer::Splats {
         means: p.means,
         quats: p.quats,

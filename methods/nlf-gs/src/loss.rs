@@ -8,10 +8,10 @@
 //! over-expanded Gaussians), `L_Δx` the mean squared anchor offset, `L_α` the mean transparency
 //! `1 − α` (a prior towards solid foreground coverage).
 
-use splatzoo_train::loss::{l1, silhouette, ssim};
 use burn::tensor::Tensor;
 use burn::tensor::activation::sigmoid;
 use serde::{Deserialize, Serialize};
+use splatzoo_train::loss::{l1, silhouette, ssim};
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -5,14 +5,14 @@
 //! following each face's frame.
 
 use crate::decoder::{Attributes, Decoder};
-use splatzoo_models::networks::fpn::{ResNetFpn, Upsample};
 use crate::query::{Fusion, Views, project, sample_and_fuse, weights};
-use splatzoo_models::networks::resnet::Depth;
-use splatzoo_models::anchor::{MeshAnchors, anchored_positions};
-use splatzoo_models::rotation::{matrix_to_quaternion, quaternion_to_matrix};
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 use serde::{Deserialize, Serialize};
+use splatzoo_models::anchor::{MeshAnchors, anchored_positions};
+use splatzoo_models::networks::fpn::{ResNetFpn, Upsample};
+use splatzoo_models::networks::resnet::Depth;
+use splatzoo_models::rotation::{matrix_to_quaternion, quaternion_to_matrix};
 
 /// Every architectural knob of NLF-GS.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

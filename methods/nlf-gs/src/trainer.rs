@@ -8,6 +8,7 @@
 //! path) goes into one checkpoint; a resumed run continues bit-exactly on the CPU backends,
 //! because nothing is random after initialisation.
 
+use crate::NlfError;
 use crate::baseline::mean_colour_avatar;
 use crate::config::{NlfTrainConfig, Supervision};
 use crate::data::{NlfSubject, NlfView, posed_splats};
@@ -16,7 +17,6 @@ use crate::network::{NlfGs, NlfInputs, PosedGaussians};
 use crate::node::GeneratedAvatar;
 use crate::onnx::{self, OnnxSamples};
 use crate::query::Views;
-use crate::NlfError;
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 use splatzoo_models::anchor::MeshAnchors;

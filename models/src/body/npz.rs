@@ -392,10 +392,8 @@ pub fn save_npz(model: &BodyModel, path: &Path) -> Result<(), BodyModelError> {
         std::io::Write::flush(&mut inner)?;
         inner.get_ref().sync_all()
     };
-    crate::files::write_atomically(path, write).map_err(|e| {
-        BodyModelError::File {
-            file,
-            problem: format!("cannot write ({e})"),
-        }
+    crate::files::write_atomically(path, write).map_err(|e| BodyModelError::File {
+        file,
+        problem: format!("cannot write ({e})"),
     })
 }

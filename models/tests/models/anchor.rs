@@ -2,9 +2,8 @@
 //! mesh, subdivision that keeps a closed mesh closed and the rest pose unchanged, and
 //! area-uniform surface sampling.
 
-
-use burn::tensor::{Device, Tensor, TensorData};
 use crate::common::values;
+use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::anchor::{
     MeshAnchors, anchored_positions, face_frames, fixed_barycentrics, subdivide,
 };

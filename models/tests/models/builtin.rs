@@ -1,9 +1,8 @@
 //! The built-in body: closed manifold mesh, SMPL skeleton layout, exact shape space and joint
 //! regressor, smooth skinning, regions and texture charts, and driving it with SMPL poses.
 
-
-use burn::tensor::{Device, Tensor, TensorData};
 use crate::common::values;
+use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::body::builtin::proportions::Skeleton;
 use splatzoo_models::body::builtin::{SHAPE_COUNT, generate};
 use splatzoo_models::body::lbs::{self, BodyTensors, PoseInput};

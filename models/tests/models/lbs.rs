@@ -3,9 +3,8 @@
 //! validation errors name the key and the expected shape.
 #![allow(clippy::needless_range_loop)] // the f64 reference mirrors the equations index by index
 
-
-use burn::tensor::{Device, Tensor, TensorData};
 use crate::common::{rodrigues, values};
+use burn::tensor::{Device, Tensor, TensorData};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 use splatzoo_models::body::{BodyKind, BodyModel, BodyTensors, PoseInput, lbs};
 use std::f64::consts::PI;

@@ -2,9 +2,9 @@
 //! blend skinning, shared networks (ResNet, FPN, weight files), body-model files (npz, pkl),
 //! skeleton priors and rotations.
 
-mod common;
 mod anchor;
 mod builtin;
+mod common;
 mod lbs;
 mod networks;
 mod npz;

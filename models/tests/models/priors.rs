@@ -1,8 +1,7 @@
 //! Skeleton priors of APF-GS Eq. 7: bone lengths and joint-angle limits.
 
-
-use burn::tensor::{Device, Tensor, TensorData};
 use crate::common::values;
+use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::body::priors::{
     SMPL_ANGLE_LIMITS_DEG, angle_limit_loss, bone_length_loss, bone_lengths,
 };

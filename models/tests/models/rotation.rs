@@ -2,9 +2,8 @@
 //! singular angles 0, π and 2π.
 #![allow(clippy::needless_range_loop)] // the f64 reference mirrors the equations index by index
 
-
-use burn::tensor::{Device, Tensor, TensorData};
 use crate::common::{rodrigues, values};
+use burn::tensor::{Device, Tensor, TensorData};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 use splatzoo_models::rotation::*;
 use std::f64::consts::PI;

@@ -1,9 +1,8 @@
 //! The CPU backends (NdArray, Flex) against the dense reference: forward images and every
 //! input's gradient, on fresh random scenes.
 
-
-use burn::tensor::Device;
 use crate::common::*;
+use burn::tensor::Device;
 use splatzoo_rasterizer::testing::{SceneSpec, random_scene};
 use splatzoo_rasterizer::{ColorMode, RasterMode, reference};
 

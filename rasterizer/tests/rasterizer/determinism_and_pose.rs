@@ -1,9 +1,8 @@
 //! The CPU path is bit-for-bit deterministic across runs and thread counts, and a camera-pose
 //! gradient flows when splats are moved into a refined camera frame with ordinary Burn ops.
 
-
-use burn::tensor::{Device, Tensor, TensorData};
 use crate::common::*;
+use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_rasterizer::cpu;
 use splatzoo_rasterizer::testing::{SceneSpec, random_scene};
 use splatzoo_rasterizer::{ColorMode, Splats, rasterize};

@@ -1,9 +1,8 @@
 //! Numerical stability at the extremes: every output and every gradient stays finite, and the
 //! documented behaviour (culling, validation errors) holds.
 
-
-use burn::tensor::{Device, Tensor, TensorData};
 use crate::common::*;
+use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_rasterizer::testing::{HostScene, SceneSpec, default_camera, random_scene};
 use splatzoo_rasterizer::{ColorMode, RasterError, RasterMode, RasterSettings, Render, rasterize};
 

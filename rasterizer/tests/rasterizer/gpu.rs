@@ -2,9 +2,8 @@
 //! images, every input's gradient, and the extremes. Without a GPU this runs on Mesa's lavapipe
 //! Vulkan driver, slowly but for real.
 
-
-use burn::tensor::Device;
 use crate::common::*;
+use burn::tensor::Device;
 use splatzoo_rasterizer::testing::{HostScene, SceneSpec, default_camera, random_scene};
 use splatzoo_rasterizer::{ColorMode, RasterMode, RasterSettings, rasterize};
 

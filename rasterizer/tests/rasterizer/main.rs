@@ -2,8 +2,8 @@
 //! (values and gradients), CPU gradients against finite differences, determinism and camera
 //! pose handling, numerical extremes, and the wgpu (CubeCL) kernels.
 
-mod common;
 mod against_reference;
+mod common;
 mod cpu_gradients;
 mod determinism_and_pose;
 mod extremes;

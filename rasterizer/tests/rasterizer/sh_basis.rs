@@ -58,7 +58,9 @@ fn sh_colour_follows_its_definition_and_its_gradient_finite_differences() {
     let n = dirs.len();
     let (k, c, degree) = (16, 3, 3);
     // Large enough coefficients that some colours clamp at 0.
-    let coefficients: Vec<f64> = (0..n * k * c).map(|_| rng.random_range(-1.0..1.0)).collect();
+    let coefficients: Vec<f64> = (0..n * k * c)
+        .map(|_| rng.random_range(-1.0..1.0))
+        .collect();
     let as_tensor = |values: &[f64]| {
         let flat: Vec<f32> = values.iter().map(|&v| v as f32).collect();
         Tensor::<3>::from_data(TensorData::new(flat, [n, k, c]), &device)
@@ -69,7 +71,9 @@ fn sh_colour_follows_its_definition_and_its_gradient_finite_differences() {
             let mut y = [0.0f64; 16];
             basis(degree, unit(d), &mut y, None);
             for ch in 0..c {
-                let sum: f64 = (0..k).map(|j| y[j] * coefficients[(i * k + j) * c + ch]).sum();
+                let sum: f64 = (0..k)
+                    .map(|j| y[j] * coefficients[(i * k + j) * c + ch])
+                    .sum();
                 out.push((sum + 0.5).max(0.0));
             }
         }
@@ -81,7 +85,10 @@ fn sh_colour_follows_its_definition_and_its_gradient_finite_differences() {
         degree,
     ));
     let want = expected(&coefficients);
-    assert!(want.iter().any(|&v| v == 0.0), "seed {seed}: no clamped colour");
+    assert!(
+        want.iter().any(|&v| v == 0.0),
+        "seed {seed}: no clamped colour"
+    );
     for (g, w) in got.iter().zip(&want) {
         assert!((*g as f64 - w).abs() < 2e-5, "seed {seed}: {g} vs {w}");
     }

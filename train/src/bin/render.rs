@@ -19,11 +19,11 @@ use splatzoo_datasets::nerfstudio::read_transforms;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, rasterize};
 use splatzoo_train::backend::Backend;
 use splatzoo_train::checkpoint::Checkpoint;
-use splatzoo_train::harness::{Method, check_format};
-use splatzoo_train::static_scene::{BACKGROUND, StaticTrainer};
 use splatzoo_train::gaussians::GaussianSet;
+use splatzoo_train::harness::{Method, check_format};
 use splatzoo_train::images::{srgb_image, write_alpha_png, write_depth_png, write_gif, write_png};
 use splatzoo_train::ply::read_ply;
+use splatzoo_train::static_scene::{BACKGROUND, StaticTrainer};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 

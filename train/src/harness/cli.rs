@@ -5,8 +5,8 @@
 //! rewritten atomically after each, its history kept across resumes), checkpoints on the
 //! schedule and on Ctrl-C (exit code 130), and at the end the method's exports and a summary.
 
-use super::{Method, MethodConfig, Say, check_format, checkpoint_config, full_checkpoint};
 use super::{History, StepReport};
+use super::{Method, MethodConfig, Say, check_format, checkpoint_config, full_checkpoint};
 use crate::backend::Backend;
 use crate::checkpoint::Checkpoint;
 use crate::config;
@@ -267,13 +267,12 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
 /// The metrics history a checkpoint carries, cut at its step.
 fn resumed_history(checkpoint: &Checkpoint, step: usize) -> Result<History, TrainError> {
     let text = checkpoint.meta("metrics")?;
-    let mut history: History = serde_json::from_str(text).map_err(|e| {
-        crate::checkpoint::CheckpointError::Entry {
+    let mut history: History =
+        serde_json::from_str(text).map_err(|e| crate::checkpoint::CheckpointError::Entry {
             file: checkpoint.origin.clone(),
             name: "metrics".into(),
             problem: format!("not a metrics history: {e}"),
-        }
-    })?;
+        })?;
     history.evaluations.retain(|e| e.step <= step);
     Ok(history)
 }

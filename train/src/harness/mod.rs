@@ -130,11 +130,7 @@ pub fn checkpoint_config<M: Method>(checkpoint: &Checkpoint) -> Result<M::Config
 
 /// The checkpoint a run writes: the method's state plus the format tag, the configuration, the
 /// step and the metrics history.
-pub fn full_checkpoint<M: Method>(
-    method: &M,
-    config: &M::Config,
-    history: &History,
-) -> Checkpoint {
+pub fn full_checkpoint<M: Method>(method: &M, config: &M::Config, history: &History) -> Checkpoint {
     let mut checkpoint = method.checkpoint();
     checkpoint.put_meta("format", M::FORMAT);
     checkpoint.put_meta("config", crate::config::to_toml(config));

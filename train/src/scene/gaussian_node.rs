@@ -116,8 +116,12 @@ impl SceneNode for GaussianNode {
             self.rates,
             self.extent,
         )?;
-        self.density
-            .load(checkpoint, &format!("{prefix}.densify"), self.set.len(), device)?;
+        self.density.load(
+            checkpoint,
+            &format!("{prefix}.densify"),
+            self.set.len(),
+            device,
+        )?;
         self.rng = Rng(checkpoint.meta_parsed(&format!("{prefix}.rng"))?);
         self.leaves = None;
         Ok(())

@@ -129,7 +129,11 @@ impl SceneGraph {
         }
     }
 
-    pub fn load(&mut self, checkpoint: &Checkpoint, device: &Device) -> Result<(), CheckpointError> {
+    pub fn load(
+        &mut self,
+        checkpoint: &Checkpoint,
+        device: &Device,
+    ) -> Result<(), CheckpointError> {
         for node in &mut self.nodes {
             let prefix = node.name().to_owned();
             node.load(checkpoint, &prefix, device)?;

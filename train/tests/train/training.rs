@@ -11,9 +11,9 @@ use splatzoo_train::densify::{
     DensifyConfig, DensityStats, Strategy, adaptive_density_control, mcmc_relocate, relocation,
 };
 use splatzoo_train::gaussians::GaussianSet;
+use splatzoo_train::harness::Method;
 use splatzoo_train::lpips::{Backbone, Lpips};
 use splatzoo_train::optimizer::{GaussianOptimizer, LearningRates};
-use splatzoo_train::harness::Method;
 use splatzoo_train::scene::{FrameContext, FrameQuery, NodeOutput, SceneGraph, SceneNode};
 use splatzoo_train::static_scene::{StaticConfig, StaticTrainer};
 
@@ -171,8 +171,7 @@ fn a_resumed_run_continues_bit_exactly() {
             .unwrap();
         drop(first);
         let saved = Checkpoint::read(&path).unwrap();
-        let restored =
-            splatzoo_train::harness::checkpoint_config::<StaticTrainer>(&saved).unwrap();
+        let restored = splatzoo_train::harness::checkpoint_config::<StaticTrainer>(&saved).unwrap();
         assert_eq!(restored, config);
         let mut second = StaticTrainer::resume(restored, &saved, &device).unwrap();
         while second.step < config.iterations {

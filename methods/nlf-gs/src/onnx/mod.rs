@@ -264,7 +264,10 @@ pub fn run_graph(
 ) -> Result<(Vec<usize>, Vec<f32>), NlfError> {
     let (inputs, _) = io_names(path)?;
     let [input] = inputs.as_slice() else {
-        return Err(NlfError::onnx(path, format!("{} graph inputs, expected one", inputs.len())));
+        return Err(NlfError::onnx(
+            path,
+            format!("{} graph inputs, expected one", inputs.len()),
+        ));
     };
     let mut outputs = names::run_graph_named(path, &[(input.as_str(), shape, values)])
         .map_err(|e| NlfError::onnx(path, e))?;
@@ -274,7 +277,8 @@ pub fn run_graph(
 
 /// The graph's input and output names, in graph order.
 pub fn io_names(path: &Path) -> Result<(Vec<String>, Vec<String>), NlfError> {
-    let bytes = std::fs::read(path).map_err(|e| NlfError::onnx(path, format!("cannot read ({e})")))?;
+    let bytes =
+        std::fs::read(path).map_err(|e| NlfError::onnx(path, format!("cannot read ({e})")))?;
     names::graph_io_names(&bytes).map_err(|e| NlfError::onnx(path, e))
 }
 

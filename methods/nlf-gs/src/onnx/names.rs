@@ -9,7 +9,7 @@ use onnx_ir::{GraphProto, Message, ModelProto};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use tract_onnx::prelude::{
-    Datum, Framework, InferenceFact, InferenceModelExt, IntoRunnable, IntoTValue, TVec, TValue,
+    Datum, Framework, InferenceFact, InferenceModelExt, IntoRunnable, IntoTValue, TValue, TVec,
     Tensor as TractTensor,
 };
 
@@ -23,8 +23,8 @@ use tract_onnx::prelude::{
 /// used by another value of the graph (an initializer named after a module parameter, say),
 /// or one value is several of the graph's inputs/outputs (which a rename cannot split).
 pub fn rename_graph_io(bytes: &[u8], inputs: &[&str], outputs: &[&str]) -> Result<Vec<u8>, String> {
-    let mut model = ModelProto::parse_from_bytes(bytes)
-        .map_err(|e| format!("decoding the ONNX model: {e}"))?;
+    let mut model =
+        ModelProto::parse_from_bytes(bytes).map_err(|e| format!("decoding the ONNX model: {e}"))?;
     let graph = model
         .graph
         .as_mut()
@@ -42,7 +42,9 @@ pub fn rename_graph_io(bytes: &[u8], inputs: &[&str], outputs: &[&str]) -> Resul
     let mut fresh = HashSet::new();
     for &name in inputs.iter().chain(outputs) {
         if name.is_empty() || !fresh.insert(name) {
-            return Err(format!("graph input/output name `{name}` is empty or repeated"));
+            return Err(format!(
+                "graph input/output name `{name}` is empty or repeated"
+            ));
         }
     }
     let mut renames = HashMap::<String, String>::new();
@@ -76,8 +78,8 @@ pub fn rename_graph_io(bytes: &[u8], inputs: &[&str], outputs: &[&str]) -> Resul
 
 /// The graph's input and output names, in graph order.
 pub fn graph_io_names(bytes: &[u8]) -> Result<(Vec<String>, Vec<String>), String> {
-    let model = ModelProto::parse_from_bytes(bytes)
-        .map_err(|e| format!("decoding the ONNX model: {e}"))?;
+    let model =
+        ModelProto::parse_from_bytes(bytes).map_err(|e| format!("decoding the ONNX model: {e}"))?;
     let graph = model
         .graph
         .as_ref()
@@ -90,7 +92,12 @@ pub fn graph_io_names(bytes: &[u8]) -> Result<(Vec<String>, Vec<String>), String
 
 /// Every value name `graph` and its subgraphs mention.
 fn collect_names(graph: &GraphProto, names: &mut HashSet<String>) {
-    for info in graph.input.iter().chain(&graph.output).chain(&graph.value_info) {
+    for info in graph
+        .input
+        .iter()
+        .chain(&graph.output)
+        .chain(&graph.value_info)
+    {
         names.insert(info.name.clone());
     }
     for tensor in &graph.initializer {
@@ -162,7 +169,10 @@ pub type Named = (String, Vec<usize>, Vec<f32>);
 /// after it (tract-onnx-0.23.9 `src/model.rs` 81–104), and its outputs the graph's `output`
 /// entries in order, each outlet labelled with its name (189–192); `SimplePlan::run` takes and
 /// gives values in that order. Names are read before `into_optimized`.
-pub fn run_graph_named(path: &Path, inputs: &[(&str, &[usize], &[f32])]) -> Result<Vec<Named>, String> {
+pub fn run_graph_named(
+    path: &Path,
+    inputs: &[(&str, &[usize], &[f32])],
+) -> Result<Vec<Named>, String> {
     let fail = |e: tract_onnx::prelude::TractError| format!("{}: {e}", path.display());
     let mut model = tract_onnx::onnx().model_for_path(path).map_err(fail)?;
     let input_names: Vec<String> = model
@@ -171,7 +181,10 @@ pub fn run_graph_named(path: &Path, inputs: &[(&str, &[usize], &[f32])]) -> Resu
         .iter()
         .map(|outlet| model.node(outlet.node).name.clone())
         .collect();
-    if let Some((name, ..)) = inputs.iter().find(|(name, ..)| !input_names.iter().any(|n| n == name)) {
+    if let Some((name, ..)) = inputs
+        .iter()
+        .find(|(name, ..)| !input_names.iter().any(|n| n == name))
+    {
         return Err(format!(
             "{}: no graph input `{name}` (inputs: {input_names:?})",
             path.display()
@@ -186,7 +199,11 @@ pub fn run_graph_named(path: &Path, inputs: &[(&str, &[usize], &[f32])]) -> Resu
         model
             .set_input_fact(ix, InferenceFact::dt_shape(f32::datum_type(), shape))
             .map_err(fail)?;
-        values.push(TractTensor::from_shape(shape, data).map_err(fail)?.into_tvalue());
+        values.push(
+            TractTensor::from_shape(shape, data)
+                .map_err(fail)?
+                .into_tvalue(),
+        );
     }
     let output_names: Vec<String> = model
         .output_outlets()

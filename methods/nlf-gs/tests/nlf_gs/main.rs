@@ -2,9 +2,9 @@
 //! generator and driver, the objective (Eq. 5–7), the ONNX export and the train-nlf and
 //! drive-nlf commands.
 
-mod query;
-mod network;
-mod loss;
-mod onnx;
 mod cli;
+mod loss;
+mod network;
+mod onnx;
+mod query;
 mod trainer;

@@ -148,7 +148,7 @@ fn the_generator_makes_a_drivable_avatar() {
         anchors: &anchors,
         depth: None,
     };
-    let avatar = model.generate(&inputs, Fusion::Full, 0.02);
+    let avatar = model.generate(&inputs, Fusion::Orientation, 0.02);
     let grads = (avatar.attributes.rgb.sum() + avatar.attributes.offset.sum()).backward();
     let g = host(leaf.grad(&grads).unwrap());
     assert!(g.iter().all(|v| v.is_finite()) && g.iter().any(|v| *v != 0.0));
@@ -228,8 +228,12 @@ fn networks_save_and_load_by_parameter_path() {
         anchors: &anchors,
         depth: None,
     };
-    let a = model.generate(&inputs, Fusion::Full, 0.02).attributes;
-    let b = loaded.generate(&inputs, Fusion::Full, 0.02).attributes;
+    let a = model
+        .generate(&inputs, Fusion::Orientation, 0.02)
+        .attributes;
+    let b = loaded
+        .generate(&inputs, Fusion::Orientation, 0.02)
+        .attributes;
     assert_eq!(host(a.rgb), host(b.rgb));
     assert_eq!(host(a.offset), host(b.offset));
     let other = NlfConfig {

@@ -5,12 +5,12 @@
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::anchor::MeshAnchors;
 use splatzoo_models::body::builtin_body;
-use splatzoo_nlf_gs::network::{NlfConfig, NlfGs};
 use splatzoo_models::networks::resnet::Depth;
+use splatzoo_nlf_gs::data::NlfSubject;
+use splatzoo_nlf_gs::network::{NlfConfig, NlfGs};
+use splatzoo_nlf_gs::onnx::{OnnxSamples, export, max_relative_difference, run_graph, verify};
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::host_f32;
-use splatzoo_nlf_gs::data::NlfSubject;
-use splatzoo_nlf_gs::onnx::{OnnxSamples, export, max_relative_difference, run_graph, verify};
 use std::path::Path;
 
 fn run_tract(path: &Path, shape: &[usize], values: &[f32]) -> (Vec<usize>, Vec<f32>) {
