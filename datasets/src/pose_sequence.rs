@@ -122,8 +122,8 @@ impl PoseSequence {
             let row = t * 3 * self.joints;
             out.poses[row..row + 3].copy_from_slice(&matrix_axis_angle(&turned));
             let tr = self.translation(t);
-            for i in 0..3 {
-                out.translations[3 * t + i] = (0..3).map(|k| r[i][k] * tr[k]).sum();
+            for (i, row) in r.iter().enumerate() {
+                out.translations[3 * t + i] = (0..3).map(|k| row[k] * tr[k]).sum();
             }
         }
         out

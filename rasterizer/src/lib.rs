@@ -13,7 +13,8 @@
 //! - Scales are natural logs of standard deviations; opacity is `sigmoid(logit)`.
 //! - SH: the real basis and signs of INRIA 3DGS up to degree 3, coefficient 0 the DC term;
 //!   colour = `max(Σ Y_k(d) c_k + 0.5, 0)` with `d` the unit vector from the camera centre to
-//!   the splat's mean.
+//!   the splat's mean. The constants and the basis as differentiable Burn ops are public in
+//!   [`sh`] (for colour evaluated outside the op, e.g. in a world frame under refined cameras).
 //! - Footprint: EWA with the Jacobian clamped to 1.3× the field of view, dilated by
 //!   `eps2d = 0.3` px² (classic) or low-pass filtered with opacity compensation (anti-aliased,
 //!   Mip-Splatting / gsplat `antialiased`).

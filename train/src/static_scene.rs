@@ -16,7 +16,6 @@ use crate::loss::{photometric, psnr, scalar, ssim};
 use crate::lpips::Lpips;
 use crate::optimizer::LearningRates;
 use crate::ply::write_ply;
-use crate::run_dir::RunDir;
 use crate::scene::{FrameQuery, GaussianNode, SceneGraph};
 use crate::views::{DataConfig, ViewSet};
 use burn::tensor::{Device, Tensor};
@@ -69,25 +68,7 @@ impl Default for StaticConfig {
 }
 
 impl MethodConfig for StaticConfig {
-    fn backend(&self) -> Backend {
-        self.backend
-    }
-
-    fn iterations(&self) -> usize {
-        self.iterations
-    }
-
-    fn eval_every(&self) -> usize {
-        self.eval_every
-    }
-
-    fn checkpoint_every(&self) -> usize {
-        self.checkpoint_every
-    }
-
-    fn lpips_weights(&self) -> Option<&Path> {
-        self.lpips_weights.as_deref()
-    }
+    crate::schedule_fields!();
 
     fn validate(&self) -> Result<(), TrainError> {
         if self.iterations == 0 {
@@ -361,11 +342,11 @@ impl Method for StaticTrainer {
     /// `point_cloud.ply` and the held-out renders (render | truth).
     fn finish(
         &self,
-        run: &RunDir,
+        run: &Path,
         _say: &mut dyn Say,
     ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError> {
-        write_ply(&run.file("point_cloud.ply"), &self.gaussian_set())?;
-        let renders = run.file("renders");
+        write_ply(&run.join("point_cloud.ply"), &self.gaussian_set())?;
+        let renders = run.join("renders");
         std::fs::create_dir_all(&renders).map_err(|e| {
             splatzoo_datasets::DatasetError::file(&renders, format!("cannot create ({e})"))
         })?;

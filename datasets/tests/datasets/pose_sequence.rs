@@ -173,3 +173,45 @@ fn a_sequence_that_cannot_drive_the_model_says_so() {
         "{e}"
     );
 }
+
+#[test]
+fn a_z_up_sequence_turns_into_the_bodies_y_up_world() {
+    use splatzoo_datasets::pose_sequence::Z_UP_TO_Y_UP;
+    use splatzoo_models::rotation_scalar::axis_angle_matrix;
+    // Frame 0 at rest, 1 m up (z); frame 1 turned 90° about z (a heading change in z-up).
+    let mut poses = vec![0.0; 2 * 72];
+    poses[72 + 2] = std::f64::consts::FRAC_PI_2;
+    poses[72 + 3] = 0.4; // another joint: untouched
+    let seq = PoseSequence {
+        joints: 24,
+        poses,
+        translations: vec![0.0, 0.0, 1.0, 0.5, -0.25, 0.9],
+        betas: vec![0.0; 2 * 10],
+        shape_count: 10,
+        fps: Some(30.0),
+    };
+    let turned = seq.rotated_world(Z_UP_TO_Y_UP);
+    assert_eq!(turned.translation(0), [0.0, 1.0, 0.0], "z up → y up");
+    let t1 = turned.translation(1);
+    for (got, want) in t1.iter().zip([0.5, 0.9, 0.25]) {
+        assert!((got - want).abs() < 1e-12, "{t1:?}");
+    }
+    // The root now stands up in y: the rest pose's up axis (z in the file) maps to +y.
+    let root0 = axis_angle_matrix(turned.pose(0)[..3].try_into().unwrap());
+    let up = [root0[0][2], root0[1][2], root0[2][2]];
+    assert!((up[1] - 1.0).abs() < 1e-12, "{up:?}");
+    // A heading about the file's up axis becomes a heading about y.
+    let root1 = axis_angle_matrix(turned.pose(1)[..3].try_into().unwrap());
+    let r0t: Vec<f64> = (0..3)
+        .flat_map(|i| (0..3).map(move |j| (i, j)))
+        .map(|(i, j)| (0..3).map(|k| root1[i][k] * root0[j][k]).sum())
+        .collect();
+    // root1 · root0ᵀ is a turn about y by 90°.
+    assert!((r0t[4] - 1.0).abs() < 1e-9, "{r0t:?}");
+    assert!(
+        r0t[0].abs() < 1e-9 && (r0t[2].abs() - 1.0).abs() < 1e-9,
+        "{r0t:?}"
+    );
+    assert_eq!(turned.pose(1)[3], 0.4);
+    assert_eq!(turned.frames(), 2);
+}

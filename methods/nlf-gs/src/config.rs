@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use splatzoo_train::TrainError;
 use splatzoo_train::backend::Backend;
 use splatzoo_train::harness::MethodConfig;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// The views the loss sees.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -76,25 +76,7 @@ impl Default for NlfTrainConfig {
 }
 
 impl MethodConfig for NlfTrainConfig {
-    fn backend(&self) -> Backend {
-        self.backend
-    }
-
-    fn iterations(&self) -> usize {
-        self.iterations
-    }
-
-    fn eval_every(&self) -> usize {
-        self.eval_every
-    }
-
-    fn checkpoint_every(&self) -> usize {
-        self.checkpoint_every
-    }
-
-    fn lpips_weights(&self) -> Option<&Path> {
-        self.lpips_weights.as_deref()
-    }
+    splatzoo_train::schedule_fields!();
 
     fn validate(&self) -> Result<(), TrainError> {
         let bad = |m: String| Err(TrainError::Config(m));

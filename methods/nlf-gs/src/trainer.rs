@@ -33,8 +33,8 @@ use splatzoo_train::images::{side_by_side, srgb_image, write_png};
 use splatzoo_train::loss::{psnr, scalar, ssim};
 use splatzoo_train::lpips::Lpips;
 use splatzoo_train::module_adam::{ModuleAdam, NETWORK_ADAM};
-use splatzoo_train::run_dir::RunDir;
 use splatzoo_train::scene::{FrameQuery, SceneGraph};
+use std::path::Path;
 use std::time::Instant;
 
 /// The training identity step `step` (1-based) trains on: each of the `identities` in turn,
@@ -144,7 +144,7 @@ impl NlfTrainer {
 
     /// The ONNX graphs, with the first held-out identity's views (all three, and two of them)
     /// and its fused features as test vectors.
-    fn export_onnx(&self, dir: &std::path::Path) -> Result<onnx::OnnxFiles, NlfError> {
+    fn export_onnx(&self, dir: &Path) -> Result<onnx::OnnxFiles, NlfError> {
         let model = self.model();
         let subject = &self.test[0];
         let inputs = subject.nlf_inputs(&self.faces, &self.anchors);
@@ -383,10 +383,10 @@ impl Method for NlfTrainer {
     /// tract.
     fn finish(
         &self,
-        run: &RunDir,
+        run: &Path,
         say: &mut dyn Say,
     ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError> {
-        let renders = run.file("renders");
+        let renders = run.join("renders");
         std::fs::create_dir_all(&renders).map_err(|e| {
             splatzoo_datasets::DatasetError::file(&renders, format!("cannot create ({e})"))
         })?;
@@ -410,7 +410,7 @@ impl Method for NlfTrainer {
         summary.insert("gaussians".into(), self.anchors.len().into());
         if self.config.onnx {
             let started = Instant::now();
-            let files = self.export_onnx(&run.file("onnx"))?;
+            let files = self.export_onnx(&run.join("onnx"))?;
             let encoder = onnx::verify(&files.encoder, &files.encoder_vectors)?;
             let decoder = onnx::verify(&files.decoder, &files.decoder_vectors)?;
             say.say(&format!(

@@ -332,7 +332,7 @@ pub fn save_npz(model: &BodyModel, path: &Path) -> Result<(), BodyModelError> {
     let v = model.vertex_count() as u64;
     let j = model.joint_count() as u64;
     let write = |tmp: &Path| -> std::io::Result<()> {
-        let mut npz = npyz::npz::NpzWriter::create(&tmp)?;
+        let mut npz = npyz::npz::NpzWriter::create(tmp)?;
         {
             let mut put = |name: &str, shape: &[u64], values: &mut dyn Iterator<Item = f64>| {
                 let mut w = npz

@@ -2,6 +2,7 @@
 //! weight loading (names, folded batch norm, unused classifier, bad files), the forward passes
 //! of ResNet-18, -34 and -50 against a scalar f64 implementation of torchvision's definition,
 //! the fused pyramid against an f64 implementation of its own, and the upsampling.
+#![allow(clippy::needless_range_loop)] // the f64 references mirror the definitions index by index
 
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::networks::fpn::{ResNetFpn, Upsample, upsample};

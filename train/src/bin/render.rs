@@ -15,8 +15,10 @@
 
 use burn::tensor::Tensor;
 use clap::Parser;
+use splatzoo_datasets::DatasetError;
 use splatzoo_datasets::nerfstudio::read_transforms;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, rasterize};
+use splatzoo_train::TrainError;
 use splatzoo_train::backend::Backend;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::gaussians::GaussianSet;
@@ -73,25 +75,27 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(args: Args) -> Result<(), String> {
+fn run(args: Args) -> Result<(), TrainError> {
     if args.cameras.is_none() && args.turntable == 0 {
-        return Err("nothing to render: give --cameras and/or --turntable N".into());
+        return Err(TrainError::Config(
+            "nothing to render: give --cameras and/or --turntable N".into(),
+        ));
     }
     let device = args.backend.device();
     let set = match (&args.ply, &args.checkpoint) {
-        (Some(ply), _) => read_ply(ply, &device).map_err(|e| e.to_string())?,
+        (Some(ply), _) => read_ply(ply, &device)?,
         (None, Some(path)) => {
-            let checkpoint = Checkpoint::read(path).map_err(|e| e.to_string())?;
-            check_format(&checkpoint, StaticTrainer::FORMAT).map_err(|e| e.to_string())?;
-            GaussianSet::load(&checkpoint, &format!("{BACKGROUND}.splats"), &device)
-                .map_err(|e| e.to_string())?
+            let checkpoint = Checkpoint::read(path)?;
+            check_format(&checkpoint, StaticTrainer::FORMAT)?;
+            GaussianSet::load(&checkpoint, &format!("{BACKGROUND}.splats"), &device)?
         }
         (None, None) => unreachable!("clap requires one"),
     };
     if set.is_empty() {
-        return Err("the Gaussian set is empty".into());
+        return Err(TrainError::Config("the Gaussian set is empty".into()));
     }
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| DatasetError::file(&args.out, format!("cannot create ({e})")))?;
     let background = Tensor::<1>::from_floats(args.background.as_slice(), &device);
     let splats = set.splats();
     let render = |camera: Camera| {
@@ -101,11 +105,11 @@ fn run(args: Args) -> Result<(), String> {
                 degree: args.sh_degree,
             },
         );
-        rasterize(&splats, background.clone(), &settings).map_err(|e| e.to_string())
+        rasterize(&splats, background.clone(), &settings)
     };
     let mut cameras = Vec::new();
     if let Some(path) = &args.cameras {
-        let frames = read_transforms(path).map_err(|e| e.to_string())?;
+        let frames = read_transforms(path)?;
         for (k, frame) in frames.iter().enumerate() {
             let stem = Path::new(&frame.file_path).file_stem().map_or_else(
                 || format!("frame_{k:05}"),
@@ -113,9 +117,9 @@ fn run(args: Args) -> Result<(), String> {
             );
             let r = render(frame.camera)?;
             let out = |suffix: &str| args.out.join(format!("{stem}{suffix}.png"));
-            write_png(&out(""), &srgb_image(&r.color)).map_err(|e| e.to_string())?;
-            write_depth_png(&out("_depth"), &r.depth, &r.alpha).map_err(|e| e.to_string())?;
-            write_alpha_png(&out("_alpha"), &r.alpha).map_err(|e| e.to_string())?;
+            write_png(&out(""), &srgb_image(&r.color))?;
+            write_depth_png(&out("_depth"), &r.depth, &r.alpha)?;
+            write_alpha_png(&out("_alpha"), &r.alpha)?;
             cameras.push(frame.camera);
         }
         println!(
@@ -131,7 +135,7 @@ fn run(args: Args) -> Result<(), String> {
             .map(|camera| render(camera).map(|r| srgb_image(&r.color)))
             .collect::<Result<Vec<_>, _>>()?;
         let path = args.out.join("turntable.gif");
-        write_gif(&path, &frames, 24).map_err(|e| e.to_string())?;
+        write_gif(&path, &frames, 24)?;
         println!("wrote {} ({} frames)", path.display(), frames.len());
     }
     Ok(())

@@ -239,8 +239,8 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
     write_checkpoint(&method, &history)?;
     let steps_run = method.steps() - first_step;
     let rate = steps_run as f64 / loop_start.elapsed().as_secs_f64().max(1e-9);
-    let run_view = RunDir::open(&args.runs, M::NAME, &args.name)?;
-    let extra = method.finish(&run_view, &mut out)?;
+    let run_path = out.run.path.clone();
+    let extra = method.finish(&run_path, &mut out)?;
     let seconds = start.elapsed().as_secs_f64();
     let mut metrics = serde_json::to_value(&history).expect("plain data");
     let summary = metrics.as_object_mut().expect("a JSON object");

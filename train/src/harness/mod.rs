@@ -18,7 +18,6 @@ use crate::backend::Backend;
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::error::TrainError;
 use crate::lpips::Lpips;
-use crate::run_dir::RunDir;
 use burn::tensor::Device;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -39,6 +38,34 @@ pub trait MethodConfig:
     fn lpips_weights(&self) -> Option<&Path>;
     /// Every range a knob must respect, checked before anything is loaded.
     fn validate(&self) -> Result<(), TrainError>;
+}
+
+/// Implements [`MethodConfig`]'s schedule accessors inside an `impl MethodConfig for …` block
+/// for a configuration with the fields `backend`, `iterations`, `eval_every`,
+/// `checkpoint_every` and `lpips_weights: Option<PathBuf>`; the block adds `validate`.
+#[macro_export]
+macro_rules! schedule_fields {
+    () => {
+        fn backend(&self) -> $crate::backend::Backend {
+            self.backend
+        }
+
+        fn iterations(&self) -> usize {
+            self.iterations
+        }
+
+        fn eval_every(&self) -> usize {
+            self.eval_every
+        }
+
+        fn checkpoint_every(&self) -> usize {
+            self.checkpoint_every
+        }
+
+        fn lpips_weights(&self) -> Option<&std::path::Path> {
+            self.lpips_weights.as_deref()
+        }
+    };
 }
 
 /// One step's outcome, for the progress bar and the log.
@@ -91,11 +118,11 @@ pub trait Method: Sized {
     /// The method's whole state (the harness adds the format tag, the configuration, the step
     /// and the metrics history).
     fn checkpoint(&self) -> Checkpoint;
-    /// Exports at the end of training (renders, `.ply`, ONNX, …) into `run`; returns extra
-    /// summary fields for `metrics.json`.
+    /// Exports at the end of training (renders, `.ply`, ONNX, …) into the run directory `run`;
+    /// returns extra summary fields for `metrics.json`.
     fn finish(
         &self,
-        run: &RunDir,
+        run: &Path,
         say: &mut dyn Say,
     ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError>;
 }

@@ -1,6 +1,7 @@
 //! NLF-GS's query and fusion (Eq. 2–4) against scalar formulas: projection, the pixel-centre
 //! convention of the sampling, each fusion variant's weights, the weighted mean, gradients by
 //! finite differences; and the decoder's bounds at extreme inputs.
+#![allow(clippy::needless_range_loop)] // the f64 references mirror the equations index by index
 
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::synth::rng::Rng;
@@ -398,7 +399,7 @@ fn occlusion_reads_the_depth_pixel_under_each_projection() {
     let tolerance = 0.01f64;
     // Depth: a different slope along rows and columns, per view, with holes.
     let depth_at = |v: usize, row: usize, col: usize| -> f32 {
-        if (row + 2 * col + 3 * v) % 13 == 0 {
+        if (row + 2 * col + 3 * v).is_multiple_of(13) {
             f32::INFINITY
         } else if v == 0 {
             2.0 + 0.09 * row as f32 + 0.025 * col as f32
