@@ -885,7 +885,7 @@ impl Writer {
     }
 
     /// A torch tensor of `shape` (C-contiguous) whose storage is `FloatStorage`, `LongStorage`
-    /// or `BoolStorage`, as plain pickle and joblib write one (see [`torch_tensor`]).
+    /// or `BoolStorage`, as plain pickle and joblib write one (see `torch_tensor`).
     pub fn torch_tensor(&mut self, shape: &[usize], values: &[f64], storage: &str) -> &mut Self {
         assert_eq!(
             shape.iter().product::<usize>(),

@@ -40,7 +40,7 @@
 //!   host read-back per call (the intersection count). At most 16 colour channels.
 //! - `Autodiff` over any of them: the image is the tracked output; the backward is the op's own.
 //!
-//! The dense [`reference`] in plain Burn tensor ops is the oracle the tests hold the fast paths
+//! The dense [`reference`](mod@reference) in plain Burn tensor ops is the oracle the tests hold the fast paths
 //! to; the CPU kernels are also checked against f64 finite differences of themselves.
 
 pub mod api;

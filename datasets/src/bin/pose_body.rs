@@ -22,7 +22,7 @@ struct Args {
     /// Body model (.npz or .pkl: SMPL, SMPL-H, SMPL-X). Default: the built-in body.
     #[arg(long)]
     model: Option<PathBuf>,
-    /// Pose sequence .npz (`poses` [T, 3J], `trans` [T, 3], `betas` [S] or [T, S]).
+    /// Pose sequence .npz (`poses` `[T, 3J]`, `trans` `[T, 3]`, `betas` `[S]` or `[T, S]`).
     /// Default: a few demonstration poses.
     #[arg(long)]
     poses: Option<PathBuf>,

@@ -21,7 +21,7 @@
 //!   like the cameras; `instances/frame_instances.json`: instance keys per frame.
 //! - `humanpose/smpl.pkl` (joblib of torch tensors, per instance key): `smpl.global_orient`
 //!   [F, 1, 3, 3] and `smpl.body_pose` [F, 23, 3, 3] **rotation matrices** (→ axis-angle here),
-//!   `smpl.betas` [F, 10], `selected_cam_idx` [F], `valid_mask` [F]. The global orientation is
+//!   `smpl.betas` `[F, 10]`, `selected_cam_idx` `[F]`, `valid_mask` `[F]`. The global orientation is
 //!   in the OpenCV frame of camera `selected_cam_idx[t]`, so `world_from_smpl` carries that
 //!   camera's camera-to-world rotation; drivestudio puts the root at the person's box centre
 //!   ([`BodyFrame::root_position`]).

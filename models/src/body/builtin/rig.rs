@@ -57,7 +57,7 @@ pub fn vertex_neighbours(mesh: &Mesh) -> Vec<Vec<u32>> {
 }
 
 /// `[V, J]` skinning weights: one-hot labels diffused over the mesh, then the largest
-/// [`MAX_INFLUENCES`] kept and renormalised.
+/// `MAX_INFLUENCES` kept and renormalised.
 pub fn skinning_weights(labels: &[u8], neighbours: &[Vec<u32>]) -> Vec<f64> {
     let v = labels.len();
     let mut w = vec![0.0f64; v * JOINTS];
@@ -175,7 +175,7 @@ pub fn shape_directions(binding: &SurfaceBinding, rest: &[V3]) -> Vec<f64> {
     dirs
 }
 
-/// `[J, V]` joint regressor. Each joint reads the [`REGRESSOR_SUPPORT`] vertices nearest to it,
+/// `[J, V]` joint regressor. Each joint reads the `REGRESSOR_SUPPORT` vertices nearest to it,
 /// with the weights closest to uniform that reproduce the joint exactly for the mean body and for
 /// every shape direction (so it holds for every shape, the model being affine in them).
 pub fn joint_regressor(rest: &[V3], shape_dirs: &[f64], mean: &Skeleton) -> Vec<f64> {
