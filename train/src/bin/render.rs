@@ -66,13 +66,7 @@ struct Args {
 }
 
 fn main() -> ExitCode {
-    match run(Args::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("error: {message}");
-            ExitCode::FAILURE
-        }
-    }
+    splatzoo_train::harness::cli::exit(run(Args::parse()))
 }
 
 fn run(args: Args) -> Result<(), TrainError> {

@@ -70,6 +70,18 @@ pub fn main<M: Method>() -> ExitCode {
     }
 }
 
+/// A command's exit: success, or its error on stderr and exit code 1 (for binaries beside the
+/// trainers: `render`, `drive-*`).
+pub fn exit<E: std::fmt::Display>(result: Result<(), E>) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
 /// The terminal (above the progress bar while there is one) and `log.txt`.
 struct Reporter {
     run: RunDir,

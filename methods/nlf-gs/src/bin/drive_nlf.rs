@@ -67,13 +67,7 @@ struct Args {
 }
 
 fn main() -> ExitCode {
-    match run(Args::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    splatzoo_train::harness::cli::exit(run(Args::parse()))
 }
 
 fn run(args: Args) -> Result<(), TrainError> {
