@@ -41,6 +41,19 @@ fn host(t: Tensor<4>) -> Vec<f32> {
         .unwrap()
 }
 
+/// A random `[1, 3, h, w]` image in [0, 1], with its values in f64.
+fn random_image(rng: &mut Rng, h: usize, w: usize, device: &Device) -> (Vec<f64>, Tensor<4>) {
+    let pixels: Vec<f64> = (0..3 * h * w).map(|_| rng.next()).collect();
+    let input = Tensor::<4>::from_data(
+        TensorData::new(
+            pixels.iter().map(|&v| v as f32).collect::<Vec<_>>(),
+            [1, 3, h, w],
+        ),
+        device,
+    );
+    (pixels, input)
+}
+
 #[test]
 fn every_depth_gives_four_stages_and_the_pyramid_one_map() {
     let device = Device::flex();
@@ -407,14 +420,7 @@ fn torchvision_resnet18_weights_load_and_match_the_f64_definition() {
         "only the classifier is left"
     );
     let (h, w) = (40, 32);
-    let pixels: Vec<f64> = (0..3 * h * w).map(|_| rng.next()).collect();
-    let input = Tensor::<4>::from_data(
-        TensorData::new(
-            pixels.iter().map(|&v| v as f32).collect::<Vec<_>>(),
-            [1, 3, h, w],
-        ),
-        &device,
-    );
+    let (pixels, input) = random_image(&mut rng, h, w, &device);
     let got = net.forward(splatzoo_models::networks::resnet::imagenet_normalise(input));
     let want = resnet18_ref(&(pixels, 3, h, w), &tensors);
     for (k, (g, r)) in got.into_iter().zip(&want).enumerate() {
@@ -512,14 +518,7 @@ fn check_resnet(depth: Depth, blocks: [usize; 4], bottleneck: bool, (h, w): (usi
         vec!["fc.bias".to_string(), "fc.weight".to_string()],
         "{depth:?}: only the classifier is left"
     );
-    let pixels: Vec<f64> = (0..3 * h * w).map(|_| rng.next()).collect();
-    let input = Tensor::<4>::from_data(
-        TensorData::new(
-            pixels.iter().map(|&v| v as f32).collect::<Vec<_>>(),
-            [1, 3, h, w],
-        ),
-        &device,
-    );
+    let (pixels, input) = random_image(&mut rng, h, w, &device);
     let got = net.forward(imagenet_normalise(input));
     let want = resnet_ref(&(pixels, 3, h, w), &tensors, blocks, bottleneck);
     for (k, (g, r)) in got.into_iter().zip(&want).enumerate() {
@@ -555,14 +554,7 @@ fn the_fused_pyramid_matches_its_f64_definition() {
     let file = WeightFile::read(&path).unwrap();
     // H ≠ W, multiples of 32: C2–C5 are 8×16, 4×8, 2×4 and 1×2.
     let (h, w) = (32, 64);
-    let pixels: Vec<f64> = (0..3 * h * w).map(|_| rng.next()).collect();
-    let input = Tensor::<4>::from_data(
-        TensorData::new(
-            pixels.iter().map(|&v| v as f32).collect::<Vec<_>>(),
-            [1, 3, h, w],
-        ),
-        &device,
-    );
+    let (pixels, input) = random_image(&mut rng, h, w, &device);
     let stages = resnet18_ref(&(pixels, 3, h, w), &tensors);
     let channels = 8;
     for mode in [Upsample::Bilinear, Upsample::Nearest] {

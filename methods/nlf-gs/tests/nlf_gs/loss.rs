@@ -161,10 +161,7 @@ fn nlf_objective_matches_its_definition_and_finite_differences() {
 fn each_loss_weight_scales_its_own_term() {
     use splatzoo_train::loss::{l1, silhouette, ssim};
     let device = Device::flex();
-    let seed = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_nanos() as u64;
+    let seed = crate::fresh_seed();
     println!("seed {seed}");
     let mut rng = Rng(seed);
     let (h, w, n) = (8, 6, 5);

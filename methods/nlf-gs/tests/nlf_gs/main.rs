@@ -8,3 +8,11 @@ mod network;
 mod onnx;
 mod query;
 mod trainer;
+
+/// A seed from the clock, so each run draws fresh random inputs (print it on failure).
+pub fn fresh_seed() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .expect("the clock is past 1970")
+        .as_nanos() as u64
+}

@@ -298,10 +298,7 @@ fn the_decoder_stays_bounded_at_extreme_inputs() {
 #[test]
 fn indexed_sampling_matches_grid_sampling() {
     let device = Device::flex();
-    let seed = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_nanos() as u64;
+    let seed = crate::fresh_seed();
     println!("seed {seed}");
     let mut rng = Rng(seed);
     let mut normal = move || -> f32 {
@@ -380,10 +377,7 @@ fn indexed_sampling_matches_grid_sampling() {
 fn occlusion_reads_the_depth_pixel_under_each_projection() {
     let device = Device::flex();
     let (views, centres) = views(&device);
-    let seed = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_nanos() as u64;
+    let seed = crate::fresh_seed();
     println!("seed {seed}");
     let mut rng = Rng(seed);
     let [width, height] = views.size;
