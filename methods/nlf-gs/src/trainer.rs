@@ -113,33 +113,36 @@ impl NlfTrainer {
         }
     }
 
-    /// Mean scores of `avatar_of`'s avatars over `views_of` each subject; `keep` sees every
-    /// render.
+    /// Mean scores of `avatar_of`'s avatars over each view set of `view_sets` (one avatar per
+    /// subject, rendered into every set); `keep` sees every render with its set, subject and
+    /// view index.
     fn score(
         &self,
         subjects: &[NlfSubject],
         avatar_of: &dyn Fn(&NlfSubject) -> PosedGaussians,
-        views_of: fn(&NlfSubject) -> &[NlfView],
+        view_sets: &[ViewSet],
         lpips: Option<&Lpips>,
-        keep: &mut dyn FnMut(usize, usize, &Render) -> Result<(), TrainError>,
-    ) -> Result<Scores, TrainError> {
-        let mut sum = ScoreSum::default();
+        keep: &mut Keep<'_>,
+    ) -> Result<Vec<Scores>, TrainError> {
+        let mut sums = vec![ScoreSum::default(); view_sets.len()];
         for (i, subject) in subjects.iter().enumerate() {
             let graph =
                 SceneGraph::new().with(GeneratedAvatar::new(posed_splats(avatar_of(subject))));
             let background = subject.background_tensor();
-            for (k, view) in views_of(subject).iter().enumerate() {
-                let render = render_view(&graph, view, background.clone())?;
-                let image = render.color.clone().clamp(0.0, 1.0);
-                sum.add(
-                    psnr(image.clone(), view.image.clone()),
-                    scalar(ssim(image.clone(), view.image.clone())),
-                    lpips.map(|l| scalar(l.distance(image, view.image.clone()))),
-                );
-                keep(i, k, &render)?;
+            for (set, (views_of, sum)) in view_sets.iter().zip(&mut sums).enumerate() {
+                for (k, view) in views_of(subject).iter().enumerate() {
+                    let render = render_view(&graph, view, background.clone())?;
+                    let image = render.color.clone().clamp(0.0, 1.0);
+                    sum.add(
+                        psnr(image.clone(), view.image.clone()),
+                        scalar(ssim(image.clone(), view.image.clone())),
+                        lpips.map(|l| scalar(l.distance(image, view.image.clone()))),
+                    );
+                    keep(set, i, k, &render)?;
+                }
             }
         }
-        Ok(sum.mean())
+        Ok(sums.iter().map(ScoreSum::mean).collect())
     }
 
     /// The ONNX graphs, with the first held-out identity's views (all three, and two of them)
@@ -188,7 +191,13 @@ fn inputs(subject: &NlfSubject) -> &[NlfView] {
     &subject.inputs
 }
 
-fn no_keep(_: usize, _: usize, _: &Render) -> Result<(), TrainError> {
+/// Selects one set of a subject's views.
+type ViewSet = fn(&NlfSubject) -> &[NlfView];
+
+/// Sees each render of [`NlfTrainer::score`]: view set, subject, view, render.
+type Keep<'a> = dyn FnMut(usize, usize, usize, &Render) -> Result<(), TrainError> + 'a;
+
+fn no_keep(_: usize, _: usize, _: usize, _: &Render) -> Result<(), TrainError> {
     Ok(())
 }
 
@@ -266,7 +275,7 @@ impl Method for NlfTrainer {
         let mean_colour = self.score(
             &self.test,
             &|s| mean_colour_avatar(s, &self.faces, &self.anchors),
-            targets,
+            &[targets],
             lpips,
             &mut no_keep,
         )?;
@@ -274,13 +283,13 @@ impl Method for NlfTrainer {
         let untrained = self.score(
             &self.test,
             &|s| self.avatar(&model, s),
-            targets,
+            &[targets],
             lpips,
             &mut no_keep,
         )?;
         Ok(vec![
-            ("mean_colour".into(), mean_colour),
-            ("untrained".into(), untrained),
+            ("mean_colour".into(), mean_colour[0]),
+            ("untrained".into(), untrained[0]),
         ])
     }
 
@@ -359,11 +368,10 @@ impl Method for NlfTrainer {
     fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError> {
         let model = self.model();
         let avatar = |s: &NlfSubject| self.avatar(&model, s);
-        let novel = self.score(&self.test, &avatar, targets, lpips, &mut no_keep)?;
-        let at_inputs = self.score(&self.test, &avatar, inputs, lpips, &mut no_keep)?;
-        Ok(Evaluation::new(self.step, novel).with(
+        let scores = self.score(&self.test, &avatar, &[targets, inputs], lpips, &mut no_keep)?;
+        Ok(Evaluation::new(self.step, scores[0]).with(
             "at_input_views",
-            serde_json::to_value(at_inputs).expect("plain data"),
+            serde_json::to_value(scores[1]).expect("plain data"),
         ))
     }
 
@@ -395,9 +403,9 @@ impl Method for NlfTrainer {
         self.score(
             test,
             &|s| self.avatar(&model, s),
-            targets,
+            &[targets],
             None,
-            &mut |i, k, render| {
+            &mut |_, i, k, render| {
                 let pair = side_by_side(&[
                     srgb_image(&render.color),
                     srgb_image(&test[i].targets[k].image),
