@@ -20,8 +20,6 @@ pub struct GaussianNode {
     leaves: Option<GaussianSet>,
     pub optimizer: GaussianOptimizer,
     density: Box<dyn DensityStrategy>,
-    rates: LearningRates,
-    extent: f64,
     rng: Rng,
 }
 
@@ -43,8 +41,6 @@ impl GaussianNode {
             density: strategy(densify, set.len(), extent, &device),
             leaves: None,
             set,
-            rates,
-            extent,
             rng: Rng(seed),
         }
     }
@@ -113,8 +109,8 @@ impl SceneNode for GaussianNode {
             checkpoint,
             &format!("{prefix}.optimizer"),
             &self.set,
-            self.rates,
-            self.extent,
+            self.optimizer.rates,
+            self.optimizer.extent,
         )?;
         self.density.load(
             checkpoint,
