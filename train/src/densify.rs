@@ -193,7 +193,9 @@ fn logit(p: f64) -> f32 {
 
 /// One ADC decision (3DGS §5.2): prune, clone, split; resets the statistics.
 /// `prune_large` enables the screen- and world-size pruning (3DGS enables it after the first
-/// opacity reset).
+/// opacity reset). `old_from_new` is overwritten with, for every row after the decision, the
+/// row it was copied from (so per-row data a node keeps beside the set, such as skinning
+/// weights, can follow).
 pub fn adaptive_density_control(
     config: &DensifyConfig,
     set: &mut GaussianSet,
@@ -202,6 +204,7 @@ pub fn adaptive_density_control(
     extent: f64,
     prune_large: bool,
     rng: &mut Rng,
+    old_from_new: &mut Vec<usize>,
 ) -> DensifyReport {
     let rows = set.to_rows();
     let n = rows.len();
@@ -213,6 +216,7 @@ pub fn adaptive_density_control(
     let mut report = DensifyReport::default();
     let mut keep = Vec::with_capacity(n);
     let mut added = GaussianRows::default();
+    let mut added_from = Vec::new();
     let mut budget = config.max_gaussians.saturating_sub(n);
     let dense = (config.percent_dense * extent) as f32;
     for i in 0..n {
@@ -231,6 +235,7 @@ pub fn adaptive_density_control(
         } else if largest <= dense {
             keep.push(i);
             added.push_from(&rows, i);
+            added_from.push(i);
             report.cloned += 1;
             budget -= 1;
         } else {
@@ -240,6 +245,7 @@ pub fn adaptive_density_control(
                 let z: [f32; 3] = std::array::from_fn(|k| rng.normal() as f32 * scale[k]);
                 let row = added.len();
                 added.push_from(&rows, i);
+                added_from.push(i);
                 for a in 0..3 {
                     added.means[3 * row + a] =
                         mean[a] + (0..3).map(|b| rotation[a][b] * z[b]).sum::<f32>();
@@ -257,6 +263,8 @@ pub fn adaptive_density_control(
     optimizer.select(&keep);
     optimizer.grow(added.len());
     *stats = DensityStats::new(set.len(), &device);
+    *old_from_new = keep;
+    old_from_new.extend(added_from);
     report
 }
 
@@ -287,11 +295,14 @@ pub fn relocation(opacity: f64, copies: usize) -> (f64, f64) {
 /// One MCMC decision: dead Gaussians (opacity below `min_opacity`) move onto live ones sampled
 /// in proportion to opacity, then `growth` × N new ones are added the same way, up to the
 /// cap. Sources and destinations share the Eq. 9 opacity and scale; their moments restart.
+/// `old_from_new` is overwritten with the row each row after the decision was copied from
+/// (itself where it did not move), as in [`adaptive_density_control`].
 pub fn mcmc_relocate(
     config: &DensifyConfig,
     set: &mut GaussianSet,
     optimizer: &mut GaussianOptimizer,
     rng: &mut Rng,
+    old_from_new: &mut Vec<usize>,
 ) -> DensifyReport {
     let mut rows = set.to_rows();
     let n = rows.len();
@@ -358,6 +369,11 @@ pub fn mcmc_relocate(
     for &s in &new_sources {
         added.push_from(&rows, s);
     }
+    *old_from_new = (0..n).collect();
+    for &(d, s) in &moved {
+        old_from_new[d] = s;
+    }
+    old_from_new.extend(&new_sources);
     let device = set.means.device();
     *set = GaussianSet::from_rows(&rows, &device).append(&GaussianSet::from_rows(&added, &device));
     optimizer.restart_rows(&restart);

@@ -10,12 +10,14 @@
 //! - Data and files: training views of static scenes ([`views`]), checkpoints
 //!   ([`checkpoint`]), configuration files ([`config`]), backends ([`backend`]), run
 //!   directories ([`run_dir`]), image outputs ([`images`]), INRIA-layout `.ply` ([`ply`]).
+//! - Animatable avatars from video on the skinned node ([`avatar`]; the `train-avatar` binary).
 //! - Static-scene 3D Gaussian splatting, the scene-prior stage the methods reuse
 //!   ([`static_scene`]; the `train-3dgs` and `render` binaries).
 //!
 //! Errors: [`TrainError`].
 
 pub mod adam;
+pub mod avatar;
 pub mod backend;
 pub mod checkpoint;
 pub mod config;

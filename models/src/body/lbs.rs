@@ -101,6 +101,10 @@ pub struct Posed {
     /// (`x_world = R x_rest_posed + t`); it carries Gaussians anchored to the surface.
     pub vertex_rotations: Tensor<4>,
     pub vertex_translations: Tensor<3>,
+    /// `[B, J, 3]`: with `joint_rotations`, each joint's rigid transform rest → world
+    /// (`x_world = R_j x_rest + t_j`, global translation included); the vertex transforms are
+    /// these blended by the skinning weights, and skinned Gaussians use them directly.
+    pub skinning_translations: Tensor<3>,
     /// `[B, V, 3]` shaped (and expression-blended) rest vertices, before pose correctives.
     pub shaped: Tensor<3>,
 }
@@ -204,6 +208,7 @@ pub fn pose(body: &BodyTensors, input: &PoseInput) -> Posed {
         .matmul(rots.clone().reshape([b, j, 9]))
         .reshape([b, v, 3, 3]);
     let translation = input.translation.clone().reshape([b, 1, 3]);
+    let skinning_translations = trans.clone() + translation.clone();
     let vertex_translations = weights.matmul(trans) + translation.clone();
     let rotated = vertex_rotations
         .clone()
@@ -215,6 +220,7 @@ pub fn pose(body: &BodyTensors, input: &PoseInput) -> Posed {
         joint_rotations: rots,
         vertex_rotations,
         vertex_translations,
+        skinning_translations,
         shaped,
     }
 }

@@ -25,6 +25,9 @@ pub struct RowEdit<'a> {
     pub step: usize,
     /// Training progress in [0, 1] (for the position learning rate).
     pub progress: f64,
+    /// Left alone when no row moved; otherwise overwritten with, for every row after the
+    /// edit, the row before it that it was copied from (see [`adaptive_density_control`]).
+    pub old_from_new: &'a mut Vec<usize>,
 }
 
 pub trait DensityStrategy {
@@ -101,6 +104,7 @@ impl DensityStrategy for Adc {
                 self.extent,
                 self.opacity_resets > 0,
                 edit.rng,
+                edit.old_from_new,
             ));
         }
         if self.config.resets_opacity_at(edit.step) {
@@ -147,7 +151,15 @@ impl DensityStrategy for Mcmc {
         mcmc_noise(&self.config, edit.set, rate, edit.rng);
         self.config
             .refines_at(edit.step)
-            .then(|| mcmc_relocate(&self.config, edit.set, edit.optimizer, edit.rng))
+            .then(|| {
+                mcmc_relocate(
+                    &self.config,
+                    edit.set,
+                    edit.optimizer,
+                    edit.rng,
+                    edit.old_from_new,
+                )
+            })
     }
 }
 

@@ -21,6 +21,8 @@ pub struct GaussianNode {
     pub optimizer: GaussianOptimizer,
     density: Box<dyn DensityStrategy>,
     rng: Rng,
+    /// Where each row came from in the last step's density edit (empty when no row moved).
+    old_from_new: Vec<usize>,
 }
 
 impl GaussianNode {
@@ -42,7 +44,20 @@ impl GaussianNode {
             leaves: None,
             set,
             rng: Rng(seed),
+            old_from_new: Vec::new(),
         }
+    }
+
+    /// The lineage of the last [`SceneNode::end_step`]'s density edit: for every row now, the
+    /// row it was copied from; `None` when no row moved. Nodes that keep per-row data beside
+    /// the set (a skinned node's weights and anchors) follow it.
+    pub fn take_lineage(&mut self) -> Option<Vec<usize>> {
+        (!self.old_from_new.is_empty()).then(|| std::mem::take(&mut self.old_from_new))
+    }
+
+    /// This step's autodiff leaves (between `begin_step` and `end_step`).
+    pub fn leaves(&self) -> Option<&GaussianSet> {
+        self.leaves.as_ref()
     }
 
     pub fn density(&self) -> &dyn DensityStrategy {
@@ -81,12 +96,14 @@ impl SceneNode for GaussianNode {
         }
         self.optimizer
             .step(&mut self.set, &leaves, end.grads, end.progress);
+        self.old_from_new.clear();
         self.density.after_step(RowEdit {
             set: &mut self.set,
             optimizer: &mut self.optimizer,
             rng: &mut self.rng,
             step: end.step + 1,
             progress: end.progress,
+            old_from_new: &mut self.old_from_new,
         })
     }
 
@@ -120,6 +137,7 @@ impl SceneNode for GaussianNode {
         )?;
         self.rng = Rng(checkpoint.meta_parsed(&format!("{prefix}.rng"))?);
         self.leaves = None;
+        self.old_from_new.clear();
         Ok(())
     }
 }

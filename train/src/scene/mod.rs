@@ -7,8 +7,10 @@
 
 mod gaussian_node;
 mod node;
+pub mod skinned;
 
 pub use gaussian_node::GaussianNode;
+pub use skinned::SkinnedGaussianNode;
 pub use node::{Bounds, FrameContext, FrameQuery, NodeOutput, SceneNode, StepEnd};
 
 use crate::checkpoint::{Checkpoint, CheckpointError};

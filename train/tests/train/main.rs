@@ -1,6 +1,8 @@
 //! The training engine's integration tests, one binary: the train-3dgs and render commands,
-//! losses, metrics, Adam and .ply files, and training on every backend.
+//! losses, metrics, Adam and .ply files, training on every backend, and the skinned-Gaussian
+//! node.
 
 mod commands;
 mod losses_and_ply;
+mod skinned;
 mod training;

@@ -217,6 +217,7 @@ fn adaptive_density_control_clones_splits_and_prunes_with_the_optimiser_state() 
     stats.count = Tensor::from_floats([2.0, 2.0, 2.0, 2.0], &device);
     let config = DensifyConfig::default();
     let mut rng = Rng(5);
+    let mut old_from_new = Vec::new();
     let report = adaptive_density_control(
         &config,
         &mut set,
@@ -225,6 +226,7 @@ fn adaptive_density_control_clones_splits_and_prunes_with_the_optimiser_state() 
         1.0,
         false,
         &mut rng,
+        &mut old_from_new,
     );
     assert_eq!(
         (report.cloned, report.split, report.pruned),
@@ -233,6 +235,7 @@ fn adaptive_density_control_clones_splits_and_prunes_with_the_optimiser_state() 
     );
     // Kept: rows 0 and 3; added: the clone of 0, then two children of 1.
     assert_eq!(set.len(), 5);
+    assert_eq!(old_from_new, [0, 3, 0, 1, 1], "the lineage of every row");
     let rows = set.to_rows();
     assert_eq!(rows.mean(0), [0.0, 0.0, 0.0]);
     assert_eq!(rows.mean(1), [0.0, 0.0, 1.0]);
@@ -289,8 +292,26 @@ fn mcmc_relocation_preserves_opacity_and_moves_every_dead_gaussian() {
         max_gaussians: 205,
         ..Default::default()
     };
-    let report = mcmc_relocate(&config, &mut set, &mut optimizer, &mut Rng(9));
+    let mut old_from_new = Vec::new();
+    let report = mcmc_relocate(
+        &config,
+        &mut set,
+        &mut optimizer,
+        &mut Rng(9),
+        &mut old_from_new,
+    );
     assert_eq!((report.relocated, report.added), (30, 5));
+    assert_eq!(old_from_new.len(), 205);
+    let lineage_rows = set.to_rows();
+    for (new, &old) in old_from_new.iter().enumerate() {
+        assert!(old < 200, "row {new} from {old}");
+        if new >= 30 && new < 200 {
+            assert_eq!(old, new, "a live row stays itself");
+        } else {
+            assert!(old >= 30, "row {new} copies a live row, not dead {old}");
+            assert_eq!(lineage_rows.mean(new), lineage_rows.mean(old), "row {new} sits on {old}");
+        }
+    }
     assert_eq!(set.len(), 205, "growth stops at the cap");
     let rows = set.to_rows();
     assert!(
