@@ -215,6 +215,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         splits: BTreeMap::new(),
         points: Vec::new(),
         boxes,
+        warnings: Vec::new(),
     })
 }
 

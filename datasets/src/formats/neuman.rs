@@ -235,5 +235,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         splits,
         points,
         boxes: Vec::new(),
+        warnings: Vec::new(),
     })
 }

@@ -211,5 +211,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         splits,
         points: Vec::new(),
         boxes: Vec::new(),
+        warnings: Vec::new(),
     })
 }

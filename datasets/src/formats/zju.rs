@@ -213,6 +213,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         splits: Default::default(),
         points: Vec::new(),
         boxes: Vec::new(),
+        warnings: Vec::new(),
     })
 }
 
