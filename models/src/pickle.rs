@@ -1,10 +1,11 @@
 //! A small Python pickle reader (protocols 2–5) for what scientific data files hold: dicts,
 //! tuples, lists, scalars, strings, numpy arrays (`numpy.core.multiarray._reconstruct` + state),
-//! numpy string arrays ([`to_strings`]), scipy sparse matrices (densified), numpy object arrays saved with `np.save(allow_pickle)`
-//! (`.npy` files holding a dict, as ZJU-MoCap's `annots.npy` and NeuMan's `alignments.npy` do),
-//! and joblib dumps (NeuMan's `smpl_output_*.pkl`), whose arrays are raw bytes placed after
-//! each `NumpyArrayWrapper` rather than pickle opcodes. Nothing is executed: classes are only
-//! recognised by name. [`Writer`] writes the same subset, for test fixtures and interop.
+//! numpy string arrays ([`to_strings`]), scipy sparse matrices (densified), numpy object arrays
+//! saved with `np.save(allow_pickle)` (`.npy` files holding a dict, as ZJU-MoCap's `annots.npy`
+//! and NeuMan's `alignments.npy` do), and joblib dumps (NeuMan's `smpl_output_*.pkl`), whose
+//! arrays are raw bytes placed after each `NumpyArrayWrapper` rather than pickle opcodes. Nothing
+//! is executed: classes are only recognised by name. [`Writer`] writes the same subset, for test
+//! fixtures and interop.
 
 use crate::body::npz::{Array, fortran_to_c};
 use std::collections::HashMap;
