@@ -97,6 +97,7 @@ fn main() -> ExitCode {
         None => {
             match report.warnings.len() {
                 0 => println!("no problems found"),
+                1 => println!("no problems found (1 warning)"),
                 n => println!("no problems found ({n} warnings)"),
             }
             ExitCode::SUCCESS
