@@ -147,13 +147,9 @@ pub(crate) fn ghg_subject(split: &Path, subject: &str, positions: &[usize], view
             .unwrap();
             let depth = split.join(format!("depth/{s}/{v}.png"));
             std::fs::create_dir_all(depth.parent().unwrap()).unwrap();
-            image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_pixel(
-                16,
-                16,
-                image::Luma([1 << 15]),
-            )
-            .save(&depth)
-            .unwrap();
+            image::ImageBuffer::from_pixel(16, 16, image::Luma([1u16 << 15]))
+                .save(&depth)
+                .unwrap();
             write_npy_f64(
                 &split.join(format!("parm/{s}/{v}_intrinsic.npy")),
                 &[3, 3],

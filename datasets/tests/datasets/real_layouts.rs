@@ -104,10 +104,7 @@ fn drivestudio_empty_dynamic_masks_warn_and_are_not_problems() {
     }
     let d = load(&root, None).unwrap();
     assert_eq!(d.format, Format::Drivestudio);
-    assert!(
-        d.views.iter().all(|v| v.mask.is_some()),
-        "a mask for every image"
-    );
+    assert!(d.views.iter().all(|v| v.mask.is_some()), "a mask for every image");
     let report = check(&d, None);
     assert!(report.problems.is_empty(), "{report:?}");
     let mut warned: Vec<&str> = report.warnings.iter().map(|(f, _)| f.as_str()).collect();
@@ -168,10 +165,7 @@ fn ghg_reads_fits_beside_the_splits_and_warns_for_a_subject_without_one() {
     assert!(track("0005").frames.iter().all(Option::is_none));
     assert_eq!(d.warnings.len(), 1, "{:?}", d.warnings);
     let (file, fact) = &d.warnings[0];
-    assert!(
-        file.ends_with("THuman/THuman2.0_smplx/0005/smplx_param.pkl"),
-        "{file}"
-    );
+    assert!(file.ends_with("THuman/THuman2.0_smplx/0005/smplx_param.pkl"), "{file}");
     assert!(
         fact.contains("subject 0005 has no SMPL-X fit")
             && fact.contains("val/smplx/0005/smplx_param.pkl"),
@@ -192,11 +186,7 @@ fn ghg_reads_fits_beside_the_splits_and_warns_for_a_subject_without_one() {
     // The split-local layout: smplx/<subject>/ and transform/<subject>_transform.npy.
     let local = split.join("smplx/0005/smplx_param.pkl");
     std::fs::create_dir_all(local.parent().unwrap()).unwrap();
-    std::fs::copy(
-        thuman.join("THuman2.0_smplx/0004/smplx_param.pkl"),
-        &local,
-    )
-    .unwrap();
+    std::fs::copy(thuman.join("THuman2.0_smplx/0004/smplx_param.pkl"), &local).unwrap();
     let d = load(&split, None).unwrap();
     assert!(track_is_none(&d, "0005"), "no transform yet");
     assert!(
@@ -267,11 +257,7 @@ fn ghg_cameras_cover_the_pixels_its_renderer_drew() {
         for y in 0..16 {
             let (xf, yf) = (x as f64, y as f64);
             let by_renderer = inside(drawn, [xf, yf]);
-            assert_eq!(
-                by_renderer,
-                inside(seen, [xf + 0.5, yf + 0.5]),
-                "pixel ({x}, {y})"
-            );
+            assert_eq!(by_renderer, inside(seen, [xf + 0.5, yf + 0.5]), "pixel ({x}, {y})");
             covered += by_renderer as usize;
             unshifted_differs |= by_renderer != inside(drawn, [xf + 0.5, yf + 0.5]);
         }
@@ -327,12 +313,7 @@ fn zju_annots_with_numpy_string_arrays_load_like_lists() {
     std::fs::create_dir_all(&root).unwrap();
     zju_fixture(&root);
     let lists = load(&root, None).unwrap();
-    write_annots_with(
-        &root,
-        [3, 3],
-        |f, c| format!("Camera_B{}/{f:06}.jpg", c + 1),
-        true,
-    );
+    write_annots_with(&root, [3, 3], |f, c| format!("Camera_B{}/{f:06}.jpg", c + 1), true);
     let arrays = load(&root, None).unwrap();
     assert_eq!(arrays.views, lists.views);
     assert_eq!(arrays.people, lists.people);
@@ -340,22 +321,11 @@ fn zju_annots_with_numpy_string_arrays_load_like_lists() {
 
     let refined = dir.path().join("my_377");
     std::fs::create_dir_all(&refined).unwrap();
-    write_annots_with(
-        &refined,
-        [3, 3],
-        |f, c| format!("images/{c:02}/{f:06}.jpg"),
-        true,
-    );
+    write_annots_with(&refined, [3, 3], |f, c| format!("images/{c:02}/{f:06}.jpg"), true);
     for f in 0..2 {
         for c in 0..2 {
             write_rgb(&refined.join(format!("images/{c:02}/{f:06}.jpg")), 10, 8);
-            write_mask(
-                &refined.join(format!("mask/{c:02}/{f:06}.png")),
-                10,
-                8,
-                255,
-                0,
-            );
+            write_mask(&refined.join(format!("mask/{c:02}/{f:06}.png")), 10, 8, 255, 0);
         }
     }
     let d = load(&refined, Some(Format::Zju)).unwrap();
