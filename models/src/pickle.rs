@@ -1,10 +1,11 @@
 //! A small Python pickle reader (protocols 2–5) for what scientific data files hold: dicts,
 //! tuples, lists, scalars, strings, numpy arrays (`numpy.core.multiarray._reconstruct` + state),
-//! scipy sparse matrices (densified), numpy object arrays saved with `np.save(allow_pickle)`
-//! (`.npy` files holding a dict, as ZJU-MoCap's `annots.npy` and NeuMan's `alignments.npy` do),
-//! and joblib dumps (NeuMan's `smpl_output_*.pkl`), whose arrays are raw bytes placed after
-//! each `NumpyArrayWrapper` rather than pickle opcodes. Nothing is executed: classes are only
-//! recognised by name. [`Writer`] writes the same subset, for test fixtures and interop.
+//! numpy string arrays ([`to_strings`]), scipy sparse matrices (densified), numpy object arrays
+//! saved with `np.save(allow_pickle)` (`.npy` files holding a dict, as ZJU-MoCap's `annots.npy`
+//! and NeuMan's `alignments.npy` do), and joblib dumps (NeuMan's `smpl_output_*.pkl`), whose
+//! arrays are raw bytes placed after each `NumpyArrayWrapper` rather than pickle opcodes. Nothing
+//! is executed: classes are only recognised by name. [`Writer`] writes the same subset, for test
+//! fixtures and interop.
 
 use crate::body::npz::{Array, fortran_to_c};
 use std::collections::HashMap;
@@ -518,6 +519,112 @@ pub fn to_array(v: &Value) -> Result<Array, String> {
     Err(format!("is not an array ({class})"))
 }
 
+/// The strings of a list or tuple of `str`, or of a numpy array of strings in C order, whatever
+/// its shape: fixed-width unicode (`<U…`: UTF-32 code points, NUL-padded to the width), bytes
+/// (`|S…`, NUL-padded) or objects holding `str`. `np.array(paths)` of Python strings pickles as
+/// the first, so a data file may hold either a list or such an array where it means a list of
+/// paths (ZJU-MoCap's `annots.npy` does both).
+pub fn to_strings(v: &Value) -> Result<Vec<String>, String> {
+    if let Some(items) = v.items() {
+        return items
+            .iter()
+            .enumerate()
+            .map(|(i, item)| {
+                item.as_str()
+                    .ok_or_else(|| format!("item {i} is not a string"))
+            })
+            .collect();
+    }
+    let class = class_of(v).unwrap_or_default();
+    let state = match v {
+        Value::Object {
+            state: Some(state), ..
+        } if class.ends_with("_reconstruct") => state,
+        _ => return Err(format!("is neither a list nor a numpy array ({class})")),
+    };
+    let Value::Tuple(s) = &**state else {
+        return Err("malformed ndarray state".into());
+    };
+    let shape =
+        as_usize_tuple(s.get(1).ok_or("ndarray state without shape")?).ok_or("bad shape")?;
+    let (kind, size, little) = dtype_of(s.get(2).ok_or("ndarray state without dtype")?)?;
+    let fortran = matches!(s.get(3).map(|x| &**x), Some(Value::Bool(true)));
+    let count: usize = shape.iter().product();
+    let raw = || -> Result<Vec<u8>, String> {
+        match s.get(4).map(|x| &**x) {
+            Some(Value::Bytes(b)) => Ok(b.clone()),
+            // Python 2 `str` read as text: code points are the bytes (latin-1).
+            Some(Value::Str(t)) => Ok(t.chars().map(|c| c as u32 as u8).collect()),
+            _ => Err("malformed string array data".into()),
+        }
+    };
+    let strings: Vec<String> = match kind {
+        'U' => {
+            let raw = raw()?;
+            if raw.len() != count * size * 4 {
+                return Err(format!(
+                    "holds {} bytes for {count} strings of {size} characters",
+                    raw.len()
+                ));
+            }
+            raw.chunks_exact(4 * size.max(1))
+                .take(count)
+                .map(|item| {
+                    item.chunks_exact(4)
+                        .map(|c| {
+                            let b = [c[0], c[1], c[2], c[3]];
+                            if little {
+                                u32::from_le_bytes(b)
+                            } else {
+                                u32::from_be_bytes(b)
+                            }
+                        })
+                        .take_while(|&c| c != 0)
+                        .map(|c| char::from_u32(c).unwrap_or(char::REPLACEMENT_CHARACTER))
+                        .collect::<String>()
+                })
+                .collect()
+        }
+        'S' => {
+            let raw = raw()?;
+            if raw.len() != count * size {
+                return Err(format!(
+                    "holds {} bytes for {count} strings of {size} bytes",
+                    raw.len()
+                ));
+            }
+            raw.chunks_exact(size.max(1))
+                .take(count)
+                .map(|item| {
+                    let end = item.iter().position(|&b| b == 0).unwrap_or(item.len());
+                    String::from_utf8_lossy(&item[..end]).into_owned()
+                })
+                .collect()
+        }
+        'O' => match s.get(4).map(|x| &**x) {
+            Some(Value::List(items)) if items.len() == count => items
+                .iter()
+                .enumerate()
+                .map(|(i, item)| {
+                    item.as_str()
+                        .ok_or_else(|| format!("item {i} is not a string"))
+                })
+                .collect::<Result<Vec<String>, String>>()?,
+            _ => return Err("malformed object array data".into()),
+        },
+        other => return Err(format!("is a numeric array (dtype {other}{size}), not strings")),
+    };
+    if strings.len() != count {
+        return Err(format!("holds {} strings for shape {shape:?}", strings.len()));
+    }
+    if fortran && shape.len() > 1 {
+        // The Fortran position of each C-order element, by reordering the positions themselves.
+        let order = fortran_to_c((0..count).map(|i| i as f64).collect(), &shape);
+        return Ok(order.iter().map(|&i| strings[i as usize].clone()).collect());
+    }
+    Ok(strings)
+}
+
 /// Reads the bytes joblib wrote after a `NumpyArrayWrapper` (state: shape, order, dtype and,
 /// since joblib 1.2, `numpy_array_alignment_bytes`: a padding-length byte and that much padding
 /// precede the data).
@@ -833,17 +940,33 @@ impl Writer {
     }
 
     fn dtype(&mut self, code: &str) -> &mut Self {
-        let object = code == "O8";
+        if code == "O8" {
+            self.dtype_with(code, "|", -1, -1, 63)
+        } else {
+            self.dtype_with(code, "<", -1, -1, 0)
+        }
+    }
+
+    /// `dtype(code, False, True)` with the state numpy pickles: (3, byte order, None, None,
+    /// None, item size, alignment, flags); -1 sizes for fixed-size types.
+    fn dtype_with(
+        &mut self,
+        code: &str,
+        order: &str,
+        item_size: i32,
+        alignment: i32,
+        flags: i32,
+    ) -> &mut Self {
         self.global("numpy", "dtype")
             .str(code)
             .op(&[0x89, 0x88, 0x87, b'R']) // (code, False, True) → dtype(...)
             .op(b"(")
             .int(3)
-            .str(if object { "|" } else { "<" })
+            .str(order)
             .op(b"NNN")
-            .int(-1)
-            .int(-1)
-            .int(if object { 63 } else { 0 })
+            .int(item_size)
+            .int(alignment)
+            .int(flags)
             .op(b"tb")
     }
 
@@ -1004,6 +1127,38 @@ impl Writer {
         self.empty_ndarray().op(b"(").int(1);
         shape_tuple(self);
         self.dtype(code)
+            .op(&[0x89]) // not Fortran order
+            .op(b"B")
+            .op(&(raw.len() as u32).to_le_bytes())
+            .op(&raw)
+            .op(b"tb")
+    }
+
+    /// A numpy unicode string array of `shape` (`<U{width}`, the width of the longest value), as
+    /// numpy pickles `np.array(list_of_str)`: UTF-32 code points, NUL-padded to the width.
+    pub fn string_array(&mut self, shape: &[usize], values: &[&str]) -> &mut Self {
+        assert_eq!(
+            shape.iter().product::<usize>(),
+            values.len(),
+            "values fill the shape"
+        );
+        let width = values
+            .iter()
+            .map(|v| v.chars().count())
+            .max()
+            .unwrap_or(0)
+            .max(1);
+        let mut raw = Vec::with_capacity(values.len() * width * 4);
+        for v in values {
+            raw.extend(v.chars().flat_map(|c| (c as u32).to_le_bytes()));
+            raw.resize(raw.len() + 4 * (width - v.chars().count()), 0);
+        }
+        self.empty_ndarray().op(b"(").int(1).op(b"(");
+        for &s in shape {
+            self.int(s as i32);
+        }
+        self.op(b"t")
+            .dtype_with(&format!("U{width}"), "<", 4 * width as i32, 4, 8)
             .op(&[0x89]) // not Fortran order
             .op(b"B")
             .op(&(raw.len() as u32).to_le_bytes())

@@ -1,7 +1,9 @@
 //! `inspect-dataset`: what a dataset folder holds, in our terms: its format (detected, or
 //! `--format`), frames, cameras, people and their valid frames, splits, sparse points, image
 //! sizes; then every image and mask decoded in parallel (bounded batches) and checked against
-//! its camera. Prints the first problem, if any, and exits non-zero.
+//! its camera. Prints the warnings (valid data worth saying: extra pose rows, subjects without a
+//! body fit, empty dynamic masks; the first few, and how many), then the first problem, if any,
+//! and exits non-zero only for problems.
 //!
 //! ```sh
 //! cargo run --release --bin inspect-dataset -- path/to/CoreView_377
@@ -14,7 +16,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
-#[command(about = "Inspect a dataset folder (NeuMan, ZJU-MoCap, nerfstudio)")]
+#[command(
+    about = "Inspect a dataset folder (NeuMan, ZJU-MoCap, PeopleSnapshot, GHG THuman2.0, drivestudio Waymo, nerfstudio)"
+)]
 struct Args {
     root: PathBuf,
     /// The format (detected from the files when left out).
@@ -71,6 +75,17 @@ fn main() -> ExitCode {
             sizes.join(", ")
         }
     );
+    const SHOWN_WARNINGS: usize = 10;
+    for (file, fact) in report.warnings.iter().take(SHOWN_WARNINGS) {
+        println!("warning: {file}: {fact}");
+    }
+    if report.warnings.len() > SHOWN_WARNINGS {
+        println!(
+            "warning: … {} more ({} warnings in all)",
+            report.warnings.len() - SHOWN_WARNINGS,
+            report.warnings.len()
+        );
+    }
     match report.problems.first() {
         Some((file, problem)) => {
             println!(
@@ -80,7 +95,11 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
         None => {
-            println!("no problems found");
+            match report.warnings.len() {
+                0 => println!("no problems found"),
+                1 => println!("no problems found (1 warning)"),
+                n => println!("no problems found ({n} warnings)"),
+            }
             ExitCode::SUCCESS
         }
     }

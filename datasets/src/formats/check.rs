@@ -1,9 +1,16 @@
 //! Decodes every image and mask of a [`Dataset`] and checks it against its camera: readable,
-//! the camera's size, and (for masks) holding both person and background. Images are decoded
-//! in parallel in batches of a few per thread, each dropped after its check, so memory stays
-//! bounded by the batch whatever the dataset's size.
+//! the camera's size, and (for masks) marking some person pixel. Images are decoded in parallel
+//! in batches of a few per thread, each dropped after its check, so memory stays bounded by the
+//! batch whatever the dataset's size.
+//!
+//! What it finds is either a problem (the data is unreadable or contradicts itself: a caller
+//! should not train on it) or a warning (valid data worth saying). A mask that marks no one is a
+//! problem where the format's masks segment a person who is always in view (NeuMan's own reader
+//! asserts a non-empty mask), and a warning for drivestudio, whose `dynamic_masks/human/` holds
+//! one box mask per image, all zero wherever no pedestrian or cyclist moves (its
+//! `waymo_preprocess.py` writes it for every image).
 
-use super::{Dataset, ViewRecord};
+use super::{Dataset, Format, ViewRecord};
 use rayon::prelude::*;
 
 /// What checking found.
@@ -15,17 +22,30 @@ pub struct CheckReport {
     pub sizes: Vec<(u32, u32)>,
     /// Problems in view order: (file, problem).
     pub problems: Vec<(String, String)>,
+    /// Facts worth a warning, not problems: the dataset's load-time warnings
+    /// ([`Dataset::warnings`]) first, then the checked views' in view order: (file, fact).
+    pub warnings: Vec<(String, String)>,
 }
 
-/// One view's outcome: its image size where it decoded, whether it has a mask, its problems.
+/// Whether a format's person masks may validly mark no one.
+pub fn empty_masks_are_valid(format: Format) -> bool {
+    // drivestudio's human masks are boxes of *moving* pedestrians and cyclists (speed > 1 m/s),
+    // written for every image: most are empty.
+    matches!(format, Format::Drivestudio)
+}
+
+/// One view's outcome: its image size where it decoded, whether it has a mask, its problems
+/// and warnings.
 struct ViewCheck {
     size: Option<(u32, u32)>,
     has_mask: bool,
     problems: Vec<(String, String)>,
+    warnings: Vec<(String, String)>,
 }
 
-fn check_view(view: &ViewRecord) -> ViewCheck {
+fn check_view(view: &ViewRecord, empty_mask_is_valid: bool) -> ViewCheck {
     let mut problems = Vec::new();
+    let mut warnings = Vec::new();
     let expected = (view.camera.width, view.camera.height);
     let name = view.image.display().to_string();
     let size = match image::open(&view.image) {
@@ -52,6 +72,7 @@ fn check_view(view: &ViewRecord) -> ViewCheck {
             size,
             has_mask: false,
             problems,
+            warnings,
         };
     };
     let name = mask.display().to_string();
@@ -63,7 +84,16 @@ fn check_view(view: &ViewRecord) -> ViewCheck {
                     format!("is {w}×{h}, its camera says {}×{}", expected.0, expected.1),
                 ));
             } else if !person.iter().any(|&p| p) {
-                problems.push((name, "marks no person pixel".into()));
+                if empty_mask_is_valid {
+                    warnings.push((
+                        name,
+                        "marks no person pixel (valid here: no pedestrian or cyclist moves in \
+                         view)"
+                            .into(),
+                    ));
+                } else {
+                    problems.push((name, "marks no person pixel".into()));
+                }
             }
         }
         Err(e) => problems.push((name, e.to_string())),
@@ -72,6 +102,7 @@ fn check_view(view: &ViewRecord) -> ViewCheck {
         size,
         has_mask: true,
         problems,
+        warnings,
     }
 }
 
@@ -79,13 +110,21 @@ fn check_view(view: &ViewRecord) -> ViewCheck {
 pub fn check(dataset: &Dataset, limit: Option<usize>) -> CheckReport {
     let views = &dataset.views[..limit.unwrap_or(usize::MAX).min(dataset.views.len())];
     let batch = 2 * rayon::current_num_threads().max(1);
-    let mut report = CheckReport::default();
+    let empty_mask_is_valid = empty_masks_are_valid(dataset.format);
+    let mut report = CheckReport {
+        warnings: dataset.warnings.clone(),
+        ..CheckReport::default()
+    };
     for chunk in views.chunks(batch) {
-        let results: Vec<_> = chunk.par_iter().map(check_view).collect();
+        let results: Vec<_> = chunk
+            .par_iter()
+            .map(|view| check_view(view, empty_mask_is_valid))
+            .collect();
         for ViewCheck {
             size,
             has_mask,
             problems,
+            warnings,
         } in results
         {
             if let Some(s) = size {
@@ -96,6 +135,7 @@ pub fn check(dataset: &Dataset, limit: Option<usize>) -> CheckReport {
             }
             report.masks += has_mask as usize;
             report.problems.extend(problems);
+            report.warnings.extend(warnings);
         }
     }
     report

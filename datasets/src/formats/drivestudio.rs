@@ -15,7 +15,11 @@
 //! - `images/{t:03}_{cam}.jpg` (size from the file); masks `fine_dynamic_masks/human/…png`
 //!   where that folder exists, else `dynamic_masks/human/…png` (0/255, non-zero = person; box
 //!   masks of moving pedestrians and cyclists); beside it, as further masks, `sky_masks/`, and
-//!   the `vehicle` and `all` (→ `dynamic`) dynamic masks.
+//!   the `vehicle` and `all` (→ `dynamic`) dynamic masks. `waymo_preprocess.py`
+//!   (`save_dynamic_mask`) writes all three classes for **every** image: the projected 3D boxes
+//!   of the class's labels whose speed exceeds 1 m/s, thresholded to 0/255, so a human mask is
+//!   all zero wherever no pedestrian or cyclist moves, which is most of a real scene. An empty
+//!   human mask is valid data here: [`super::check`] reports it as a warning, not a problem.
 //! - `instances/instances_info.json`: per instance key `{id, class_name, frame_annotations:
 //!   {frame_idx, obj_to_world (4×4 per frame, Waymo global), box_size (l, w, h)}}`, re-centred
 //!   like the cameras; `instances/frame_instances.json`: instance keys per frame.
@@ -215,6 +219,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         splits: BTreeMap::new(),
         points: Vec::new(),
         boxes,
+        warnings: Vec::new(),
     })
 }
 

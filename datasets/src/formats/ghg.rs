@@ -1,19 +1,37 @@
 //! THuman2.0 as rendered by GHG (Generalizable Human Gaussians; the same renderer as
-//! GPS-Gaussian): `<root>` is a split folder (`THuman/val`) holding, per `<s>` =
-//! `<subject>_<pid:03>` (16 ring positions per subject) and view `<v>` ∈ 0..4:
+//! GPS-Gaussian), in the layout GHG's `process_dataset/render_image.py` writes and its
+//! `CUSTOM_DATASET.md` describes:
 //!
-//! - `img/<s>/<v>.jpg` (1024², RGB; `<v>_hr.jpg` ignored), `mask/<s>/<v>.png` (0/255, non-zero
-//!   = person);
+//! ```text
+//! THuman/
+//! ├── THuman2.0_Release/<subject>/   the scans (render_image.py also writes
+//! │                                   <subject>_transform.npy here)
+//! ├── THuman2.0_smplx/<subject>/smplx_param.pkl   the SMPL-X fits, beside the split folders
+//! └── train/, val/                   the split folders: img/, mask/, parm/, depth/, transform/, …
+//! ```
+//!
+//! `<root>` is a split folder (`THuman/val`) holding, per `<s>` = `<subject>_<pid:03>` (16 ring
+//! positions per subject) and view `<v>` ∈ 0..5:
+//!
+//! - `img/<s>/<v>.jpg` (1024², RGB; `<v>_hr.jpg`, written for views 2–4 at 2048², ignored),
+//!   `mask/<s>/<v>.png` (0/255, non-zero = person);
 //! - `parm/<s>/<v>_intrinsic.npy` (3, 3) and `<v>_extrinsic.npy` (3, 4) `[R | t]`,
-//!   world-to-camera with OpenCV axes, metres, world y up; the renderer puts pixel centres at
-//!   `+0.5` as we do (`cx = 512` on 1024 px), so K carries over unchanged;
-//! - where present, SMPL-X parameters `smplx/<subject>/smplx_param.pkl` (THuman2.0's release:
-//!   `betas`, `global_orient`, `body_pose` (1, 63), hands, jaw, eyes, `expression`, `scale`,
-//!   `translation`) and GHG's `transform/<subject>_transform.npy`, which together place the
-//!   model in the render's world with no rotation:
-//!   `x = k · (scale · x_smplx + translation) + (Δx, −offset, Δz)`, `k = human_height /
-//!   (vy_max − vy_min)`; kept as [`Similarity`] `{k · scale, I, k · translation + (Δx, −offset,
-//!   Δz)}`.
+//!   world-to-camera with OpenCV axes, metres, world y up. GHG's taichi renderer
+//!   (`process_dataset/taichi_three/geometry.py`, `render_triangle`) tests each **integer** pixel
+//!   index against the projection `K · x / z` (`transform.py`, `Camera.uncook`), so its pixel
+//!   centres sit at integers, OpenCV's convention: ours are at `+0.5`, so `cx = K[0,2] + 0.5`,
+//!   `cy = K[1,2] + 0.5` (as for PeopleSnapshot and ZJU-MoCap);
+//! - SMPL-X parameters `smplx_param.pkl` (THuman2.0's fits: `betas`, `global_orient`,
+//!   `body_pose` (1, 63), hands, jaw, eyes, `expression`, `scale`, `translation`), read from
+//!   `<root>/../THuman2.0_smplx/<subject>/` where GHG keeps them (`render_image.py`,
+//!   `generate_smplx_obj.py`), else from `<root>/smplx/<subject>/`; and GHG's
+//!   `<subject>_transform.npy`, from `<root>/transform/` (`CUSTOM_DATASET.md`'s layout), else
+//!   `<root>/../THuman2.0_Release/<subject>/` (where `render_image.py` writes it and
+//!   `generate_smplx_obj.py` reads it). Together they place the model in the render's world with
+//!   no rotation: `x = k · (scale · x_smplx + translation) + (Δx, −offset, Δz)`, `k =
+//!   human_height / (vy_max − vy_min)`; kept as [`Similarity`] `{k · scale, I, k · translation +
+//!   (Δx, −offset, Δz)}`. A subject without either file has no valid frame and a
+//!   [`Dataset::warnings`] entry naming where it was looked for.
 //!
 //! Frames are subjects (every view of a subject shows one moment). Splits are GHG's test
 //! protocol: `inputs` = view 0 of ring positions 0, 6, 11; `targets` = view 0 of 3, 8, 13.
@@ -25,7 +43,7 @@ use super::{
 use crate::DatasetError;
 use splatzoo_models::pickle::{Value, load_npy_object, to_array};
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 const INPUT_POSITIONS: [usize; 3] = [0, 6, 11];
 const TARGET_POSITIONS: [usize; 3] = [3, 8, 13];
@@ -55,15 +73,60 @@ fn scalar(file: &Path, v: &Value, key: &str) -> Result<f64, DatasetError> {
     Ok(expect_values(file, key, &a.shape, "a number or (1,)", &a.values, 1)?[0])
 }
 
-/// The subject's SMPL-X frame, when its parameter and transform files exist.
-fn body(root: &Path, subject: &str) -> Result<Option<BodyFrame>, DatasetError> {
-    let params = root.join("smplx").join(subject).join("smplx_param.pkl");
-    let transform = root
-        .join("transform")
-        .join(format!("{subject}_transform.npy"));
-    if !params.is_file() || !transform.is_file() {
+/// The folder holding the split folder (`THuman/` for `THuman/val`).
+fn thuman_root(root: &Path) -> PathBuf {
+    root.parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .map_or_else(|| root.join(".."), Path::to_path_buf)
+}
+
+/// The subject's SMPL-X frame, when its parameter and transform files exist; otherwise `None`
+/// and a warning saying which is missing and where it was looked for.
+fn body(
+    root: &Path,
+    subject: &str,
+    warnings: &mut Vec<(String, String)>,
+) -> Result<Option<BodyFrame>, DatasetError> {
+    let thuman = thuman_root(root);
+    let param_candidates = [
+        thuman
+            .join("THuman2.0_smplx")
+            .join(subject)
+            .join("smplx_param.pkl"),
+        root.join("smplx").join(subject).join("smplx_param.pkl"),
+    ];
+    let transform_name = format!("{subject}_transform.npy");
+    let transform_candidates = [
+        root.join("transform").join(&transform_name),
+        thuman
+            .join("THuman2.0_Release")
+            .join(subject)
+            .join(&transform_name),
+    ];
+    let found = |candidates: &[PathBuf]| candidates.iter().find(|p| p.is_file()).cloned();
+    let Some(params) = found(&param_candidates[..]) else {
+        warnings.push((
+            param_candidates[0].display().to_string(),
+            format!(
+                "missing, nor at {}: subject {subject} has no SMPL-X fit, so its frame is not \
+                 valid",
+                param_candidates[1].display()
+            ),
+        ));
         return Ok(None);
-    }
+    };
+    let Some(transform) = found(&transform_candidates[..]) else {
+        warnings.push((
+            transform_candidates[0].display().to_string(),
+            format!(
+                "missing, nor at {}: subject {subject}'s SMPL-X fit ({}) cannot be placed in \
+                 the renders without GHG's transform, so its frame is not valid",
+                transform_candidates[1].display(),
+                params.display()
+            ),
+        ));
+        return Ok(None);
+    };
     let p = splatzoo_models::pickle::load(&params).map_err(|e| DatasetError::file(&params, e))?;
     let p = p.item();
     let t = load_npy_object(&transform).map_err(|e| DatasetError::file(&transform, e))?;
@@ -187,8 +250,9 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             views.push(ViewRecord {
                 frame,
                 camera_name: format!("{position:03}/{v}"),
+                // GHG's renderer: pixel centres at integers → ours at +0.5.
                 camera: camera_from(
-                    [k[0], k[4], k[2], k[5]],
+                    [k[0], k[4], k[2] + 0.5, k[5] + 0.5],
                     size,
                     std::array::from_fn(|i| std::array::from_fn(|j| e[4 * i + j])),
                     [e[3], e[7], e[11]],
@@ -201,18 +265,16 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             });
         }
     }
-    let people = subjects
-        .iter()
-        .enumerate()
-        .map(|(f, subject)| {
-            let mut frames = vec![None; subjects.len()];
-            frames[f] = body(root, subject)?;
-            Ok(PoseTrack {
-                person: subject.clone(),
-                frames,
-            })
-        })
-        .collect::<Result<Vec<_>, DatasetError>>()?;
+    let mut warnings = Vec::new();
+    let mut people = Vec::with_capacity(subjects.len());
+    for (f, subject) in subjects.iter().enumerate() {
+        let mut frames = vec![None; subjects.len()];
+        frames[f] = body(root, subject, &mut warnings)?;
+        people.push(PoseTrack {
+            person: subject.clone(),
+            frames,
+        });
+    }
     Ok(Dataset {
         format: Format::Ghg,
         frame_times: Vec::new(),
@@ -223,5 +285,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         splits,
         points: Vec::new(),
         boxes: Vec::new(),
+        warnings,
     })
 }

@@ -9,7 +9,9 @@
 //! ([`people_snapshot`]), THuman2.0 renders of the GHG protocol ([`ghg`]), drivestudio's
 //! processed Waymo ([`drivestudio`]), nerfstudio folders, and the synthetic generator's own
 //! export ([`synthetic`]), so generated scenes arrive in the same types. [`detect`] recognises a
-//! folder's format; [`check`] decodes every image and mask in parallel, in bounded batches.
+//! folder's format; [`check`] decodes every image and mask in parallel, in bounded batches, and
+//! tells problems (unreadable or inconsistent data) from warnings (valid data worth saying:
+//! empty dynamic masks, subjects without a fit, extra pose rows).
 
 pub mod check;
 pub mod colmap;
@@ -175,6 +177,10 @@ pub struct Dataset {
     pub points: Vec<SparsePoint>,
     /// 3D boxes of annotated objects, where the format has them.
     pub boxes: Vec<InstanceBox>,
+    /// What loading found that is valid data but worth saying, as (file, fact): e.g. more pose
+    /// rows than frames (PeopleSnapshot), a subject without a body fit (GHG). Not problems: the
+    /// dataset loaded; [`check::check`] carries these into its report's warnings.
+    pub warnings: Vec<(String, String)>,
 }
 
 /// One object's box in one frame.
@@ -345,6 +351,7 @@ pub(crate) fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
         splits: BTreeMap::new(),
         points: Vec::new(),
         boxes: Vec::new(),
+        warnings: Vec::new(),
     })
 }
 

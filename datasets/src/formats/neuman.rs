@@ -5,8 +5,12 @@
 //!   COLMAP's unit and leave scaling to the user).
 //! - `images/<NAME>`, sorted by name; the frame index is the number in the name (`00012.png` →
 //!   12), which is also the SMPL index.
-//! - `segmentations/<NAME>`: **0 is the person, 255 the background** (NeuMan writes
-//!   `(1 − mask)·255` and inverts on reading) → [`MaskConvention::ZeroIsPerson`].
+//! - `segmentations/<NAME>.npy` (an (H, W) array) where present, which `neuman_helper.py`'s
+//!   `read_captures` prefers, else `segmentations/<NAME>` (NeuMan's detectron2 `demo.py` writes
+//!   it, and a copy as `<NAME>.png`): **0 is the person, 255 the background** in both (the
+//!   segmenter saves `(1 − mask)·255`; the helper's `mask` property requires a maximum of 255,
+//!   maps 255 to background and inverts) → [`MaskConvention::ZeroIsPerson`]. A mask without a
+//!   person pixel is a problem: the helper asserts one.
 //! - `smpl_output_optimized.pkl` (else `smpl_output_romp.pkl`), a joblib dump of
 //!   `{1: {'pose': [N × (72,)], 'betas': [N × (10,)], …}}`: SMPL axis-angle with the global
 //!   orientation in `pose[0:3]`, no translation.
@@ -97,14 +101,21 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 "expected a numbered image name such as 00012.png",
             )
         })?;
-        let mask = root.join("segmentations").join(&image.name);
+        // neuman_helper.py: `<NAME>.npy` first, else the image-named PNG.
+        let segmentations = root.join("segmentations");
+        let mask = [
+            segmentations.join(format!("{}.npy", image.name)),
+            segmentations.join(&image.name),
+        ]
+        .into_iter()
+        .find(|p| p.is_file());
         views.push(ViewRecord {
             frame,
             camera_name: image.name.clone(),
             camera: image.camera(k),
             distortion: k.distortion,
             image: root.join("images").join(&image.name),
-            mask: mask.is_file().then_some(mask),
+            mask,
             mask_convention: MaskConvention::ZeroIsPerson,
             other_masks: Default::default(),
         });
@@ -235,5 +246,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         splits,
         points,
         boxes: Vec::new(),
+        warnings: Vec::new(),
     })
 }

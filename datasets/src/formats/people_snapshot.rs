@@ -9,8 +9,14 @@
 //!   `height`, `width` (0-d).
 //! - `images/image_XXXX.png` (undistorted), `masks/mask_XXXX.npy` (H, W) `u1` **0/1**, not
 //!   0/255; sorted by name, frame = position.
-//! - `poses.npz`: `thetas` (N, 72) SMPL axis-angle (global orientation first, in the camera
-//!   frame), `transl` (N, 3) metres, `betas` (10,). Where `poses/anim_nerf_{train,val,test}.npz`
+//! - `poses.npz`: `thetas` (R, 72) SMPL axis-angle (global orientation first, in the camera
+//!   frame), `transl` (R, 3) metres, `betas` (10,), float32, copied unchanged by the script from
+//!   the release's `reconstructed_poses.hdf5` (`pose`, `trans`, `betas`). The release holds
+//!   **one more pose than there are frames** (e.g. 835 poses for male-1-casual's 834 frames;
+//!   thmoa/videoavatars issue #78), so any R ≥ N is accepted and row i is frame i: the first N
+//!   rows are used, as InstantAvatar's `instant_avatar/datasets/peoplesnapshot.py` indexes them
+//!   by frame (neuralbody's `tools/process_snapshot.py` keeps the last N instead), and the extra
+//!   rows are reported in [`Dataset::warnings`]. Where `poses/anim_nerf_{train,val,test}.npz`
 //!   exist (`global_orient` (M, 3), `body_pose` (M, 69), `transl` (M, 3), `betas` (1, 10): the
 //!   refined poses, row j = the j-th frame of the split), they replace `poses.npz` on their
 //!   frames.
@@ -74,6 +80,32 @@ fn sorted_files(
 fn open(path: &Path) -> Result<NpzArchive<std::io::BufReader<std::fs::File>>, DatasetError> {
     NpzArchive::open(path)
         .map_err(|e| DatasetError::file(path, format!("cannot open as .npz ({e})")))
+}
+
+/// `key` of `archive` as at least `rows` rows of `width` values; the first `rows` (finite) and
+/// how many the file holds.
+fn leading_rows(
+    path: &Path,
+    archive: &mut NpzArchive<std::io::BufReader<std::fs::File>>,
+    key: &str,
+    rows: usize,
+    width: usize,
+) -> Result<(Vec<Vec<f64>>, usize), DatasetError> {
+    let a = read_npz_key(path, archive, key)?;
+    let expected = format!("(at least {rows}, {width})");
+    let held = match a.shape[..] {
+        [m, w] if w == width && m >= rows => m,
+        _ => {
+            return Err(DatasetError::field(
+                path,
+                key,
+                format!("shape {:?}, expected {expected}", a.shape),
+            ));
+        }
+    };
+    let n = rows * width;
+    let values = expect_values(path, key, &a.shape, &expected, &a.values[..n], n)?;
+    Ok((values.chunks(width).map(<[f64]>::to_vec).collect(), held))
 }
 
 /// `key` of `archive` as `rows` rows of `width` finite values.
@@ -148,9 +180,20 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
 
     let poses_path = root.join("poses.npz");
     let mut poses = open(&poses_path)?;
-    let thetas = rows(&poses_path, &mut poses, "thetas", n, 72)?;
-    let transl = rows(&poses_path, &mut poses, "transl", n, 3)?;
+    let (thetas, theta_rows) = leading_rows(&poses_path, &mut poses, "thetas", n, 72)?;
+    let (transl, transl_rows) = leading_rows(&poses_path, &mut poses, "transl", n, 3)?;
     let betas = rows(&poses_path, &mut poses, "betas", 1, 10)?.remove(0);
+    let mut warnings = Vec::new();
+    if theta_rows > n || transl_rows > n {
+        warnings.push((
+            poses_path.display().to_string(),
+            format!(
+                "`thetas` has {theta_rows} rows and `transl` {transl_rows} for {n} frames \
+                 (the release's reconstructed_poses.hdf5 holds one more pose than frames); \
+                 the first {n} are used, row i for frame i"
+            ),
+        ));
+    }
     let mut frames: Vec<Option<BodyFrame>> = (0..n)
         .map(|f| {
             Some(BodyFrame {
@@ -211,5 +254,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         splits,
         points: Vec::new(),
         boxes: Vec::new(),
+        warnings,
     })
 }

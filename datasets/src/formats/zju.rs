@@ -5,7 +5,9 @@
 //!   OpenCV intrinsics, `D` (5, 1) `k1 k2 p1 p2 k3`, `R` (3, 3) and `T` (3, 1) world-to-camera
 //!   with **`T` in millimetres** (→ metres here). OpenCV puts pixel centres at integers, we at
 //!   `+0.5`: `cx = K[0,2] + 0.5`, `cy = K[1,2] + 0.5`. `ims` = one `{ims: [path per camera]}`
-//!   per frame.
+//!   per frame: a list of `str` as neuralbody's `tools/custom/get_annots.py` writes it
+//!   (`.tolist()` of its sorted, stacked glob), or the numpy string array (`<U…`) that the same
+//!   script writes without `.tolist()`; both read alike ([`to_strings`]).
 //! - Original layout: `Camera_B1/000000.jpg` (or `Camera (1)/CoreView_313_Camera_(1)_0001_….jpg`
 //!   for 313/315, whose frame number is the fifth `_` field, 1-based); masks
 //!   `mask_cihp/<same>.png`, else `mask/<same>.png`. Refined layout: `images/<cc>/<ffffff>.jpg`,
@@ -21,7 +23,7 @@ use super::{
     axis_angle_matrix, camera_from, expect_values,
 };
 use crate::DatasetError;
-use splatzoo_models::pickle::{Value, load_npy_object, to_array};
+use splatzoo_models::pickle::{Value, load_npy_object, to_array, to_strings};
 use std::path::{Path, PathBuf};
 
 fn array(
@@ -105,11 +107,26 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             "expected a list of {ims: [path per camera]} per frame",
         )
     })?;
-    let refined = ims
+    let frame_paths: Vec<Vec<String>> = ims
+        .iter()
+        .enumerate()
+        .map(|(f, entry)| {
+            let field = format!("ims[{f}].ims");
+            let paths = entry.get("ims").ok_or_else(|| {
+                DatasetError::field(&annots_path, &field, "missing (expected the image paths)")
+            })?;
+            to_strings(paths).map_err(|p| {
+                DatasetError::field(
+                    &annots_path,
+                    &field,
+                    format!("expected a list or numpy array of image paths ({p})"),
+                )
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    let refined = frame_paths
         .first()
-        .and_then(|f| f.get("ims"))
-        .and_then(|l| l.items())
-        .and_then(|l| l.first().and_then(|p| p.as_str()))
+        .and_then(|paths| paths.first())
         .is_some_and(|p| p.starts_with("images/"));
     let mut intrinsics = Vec::with_capacity(cameras);
     for c in 0..cameras {
@@ -141,14 +158,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
     let mut views = Vec::new();
     let mut frames = Vec::with_capacity(ims.len());
     let mut sizes: Vec<Option<(u32, u32)>> = vec![None; cameras];
-    for (f, entry) in ims.iter().enumerate() {
-        let paths = entry.get("ims").and_then(|v| v.items()).ok_or_else(|| {
-            DatasetError::field(
-                &annots_path,
-                &format!("ims[{f}].ims"),
-                "expected a list of image paths",
-            )
-        })?;
+    for (f, paths) in frame_paths.iter().enumerate() {
         if paths.len() > cameras {
             return Err(DatasetError::field(
                 &annots_path,
@@ -157,15 +167,8 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             ));
         }
         let mut index = None;
-        for (c, p) in paths.iter().enumerate() {
-            let rel = p.as_str().ok_or_else(|| {
-                DatasetError::field(
-                    &annots_path,
-                    &format!("ims[{f}].ims[{c}]"),
-                    "expected a path string",
-                )
-            })?;
-            let image = root.join(&rel);
+        for (c, rel) in paths.iter().enumerate() {
+            let image = root.join(rel);
             let size = match sizes[c] {
                 Some(s) => s,
                 None => {
@@ -177,8 +180,8 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 }
             };
             let (k, distortion, r, t) = intrinsics[c];
-            let mask = mask_path(root, &rel, refined);
-            let camera_name = Path::new(&rel)
+            let mask = mask_path(root, rel, refined);
+            let camera_name = Path::new(rel)
                 .parent()
                 .and_then(|d| d.file_name())
                 .map_or_else(|| c.to_string(), |d| d.to_string_lossy().into_owned());
@@ -192,7 +195,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 mask_convention: MaskConvention::NonZeroIsPerson,
                 other_masks: Default::default(),
             });
-            index = index.or_else(|| parameter_index(&rel));
+            index = index.or_else(|| parameter_index(rel));
         }
         let params = index.map(|i| params_dir.join(format!("{i}.npy")));
         frames.push(match params {
@@ -213,6 +216,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         splits: Default::default(),
         points: Vec::new(),
         boxes: Vec::new(),
+        warnings: Vec::new(),
     })
 }
 

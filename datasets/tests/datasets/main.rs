@@ -1,10 +1,12 @@
 //! The datasets crate's integration tests, one binary: public-format loaders on written
-//! fixtures, the pose-body command, pose sequences, the CPU mesh renderer, synthetic scenes and
-//! their export.
+//! fixtures (and on the real releases' awkward parts, [`real_layouts`]), the pose-body command,
+//! pose sequences, the CPU mesh renderer, synthetic scenes and their export.
 
+mod fixtures;
 mod formats;
 mod pose_body_cli;
 mod pose_sequence;
+mod real_layouts;
 mod render;
 mod scenes;
 mod synth;

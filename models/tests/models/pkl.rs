@@ -332,3 +332,34 @@ fn torch_tensors_read_back() {
         assert_eq!((a.shape, a.values), (vec![2, 3], values), "{storage}");
     }
 }
+
+/// Lists of paths and numpy string arrays (`np.array(paths)`, `<U…`) read as the same strings;
+/// numeric arrays are refused, not read as text.
+#[test]
+fn string_lists_and_numpy_string_arrays_read_alike() {
+    use splatzoo_models::pickle::{Writer, to_strings, unpickle};
+    let paths = ["Camera_B1/000000.jpg", "Camera_B12/000000.jpg", "é/1.jpg"];
+    let mut w = Writer::new(false);
+    w.begin_dict().str("list").begin_list();
+    for p in paths {
+        w.str(p);
+    }
+    w.end_list()
+        .str("array")
+        .string_array(&[3], &paths)
+        .str("grid")
+        .string_array(&[1, 3], &paths)
+        .str("numbers")
+        .array(&[2], &[1.0, 2.0], true)
+        .end_dict();
+    let root = unpickle(&w.finish()).unwrap();
+    for key in ["list", "array", "grid"] {
+        assert_eq!(
+            to_strings(root.get(key).unwrap()).unwrap(),
+            paths,
+            "{key}"
+        );
+    }
+    let e = to_strings(root.get("numbers").unwrap()).unwrap_err();
+    assert!(e.contains("numeric"), "{e}");
+}
