@@ -612,10 +612,17 @@ pub fn to_strings(v: &Value) -> Result<Vec<String>, String> {
                 .collect::<Result<Vec<String>, String>>()?,
             _ => return Err("malformed object array data".into()),
         },
-        other => return Err(format!("is a numeric array (dtype {other}{size}), not strings")),
+        other => {
+            return Err(format!(
+                "is a numeric array (dtype {other}{size}), not strings"
+            ));
+        }
     };
     if strings.len() != count {
-        return Err(format!("holds {} strings for shape {shape:?}", strings.len()));
+        return Err(format!(
+            "holds {} strings for shape {shape:?}",
+            strings.len()
+        ));
     }
     if fortran && shape.len() > 1 {
         // The Fortran position of each C-order element, by reordering the positions themselves.

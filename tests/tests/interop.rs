@@ -1,11 +1,13 @@
 //! Cross-crate interop: the workspace's binaries end to end, their outputs read back by the
 //! project's readers (`.ply`, checkpoints with their format tags, `metrics.json` as the
 //! harness's history, PNG renders, ONNX graphs in tract), and checkpoints carried from one
-//! process to another (resumed bit-exactly on the CPU, read by `render` and `drive-nlf`).
+//! process to another (resumed bit-exactly on the CPU, read by `render`, `drive-nlf` and
+//! `animate-avatar`).
 
 use burn::tensor::Device;
 use splatzoo_nlf_gs::onnx;
 use splatzoo_nlf_gs::trainer::NlfTrainer;
+use splatzoo_train::avatar::AvatarTrainer;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::harness::{History, Method, check_format};
 use splatzoo_train::ply::read_ply;
@@ -236,6 +238,62 @@ fn train_nlf_default_outputs_read_back_and_resume_across_processes() {
     assert!(drive.status.success(), "{}", text(&drive));
     assert!(dir.path().join("drive/drive.gif").exists());
     // `render` refuses an NLF checkpoint by its format tag.
+    let refused = run(
+        dir.path(),
+        "render",
+        &["--checkpoint", saved.to_str().unwrap(), "--turntable", "2"],
+    );
+    assert!(
+        !refused.status.success() && text(&refused).contains(StaticTrainer::FORMAT),
+        "{}",
+        text(&refused)
+    );
+}
+
+#[test]
+fn train_avatar_default_outputs_read_back_and_animate() {
+    let dir = tempfile::tempdir().unwrap();
+    let straight = run(
+        dir.path(),
+        "train-avatar",
+        &["--iterations", "2", "--name", "a"],
+    );
+    assert!(straight.status.success(), "{}", text(&straight));
+    let out = dir.path().join("runs/avatar/a");
+    let saved = out.join("checkpoint.safetensors");
+    let checkpoint = Checkpoint::read(&saved).unwrap();
+    check_format(&checkpoint, AvatarTrainer::FORMAT).unwrap();
+    let canonical = read_ply(&out.join("canonical.ply"), &Device::flex()).unwrap();
+    let metrics = history(&out.join("metrics.json"));
+    assert_eq!(metrics.method, "avatar");
+    assert!(metrics.baselines.contains_key("plain_template/novel_view"));
+    let last = metrics
+        .evaluations
+        .last()
+        .expect("an evaluation at the end");
+    assert_eq!(
+        last.extra["gaussians"].as_u64(),
+        Some(canonical.len() as u64)
+    );
+    assert!(last.extra["mpjpe_mm"].as_f64().unwrap().is_finite());
+    assert_eq!(renders_decode(&out.join("renders")), 12 + 12);
+
+    // The avatar drives a new motion; `render` and `animate-avatar` refuse each other's files.
+    let animate = run(
+        dir.path(),
+        "animate-avatar",
+        &[
+            "--checkpoint",
+            saved.to_str().unwrap(),
+            "--frames",
+            "2",
+            "--no-ply",
+            "--out",
+            "anim",
+        ],
+    );
+    assert!(animate.status.success(), "{}", text(&animate));
+    assert!(dir.path().join("anim/animation.gif").exists());
     let refused = run(
         dir.path(),
         "render",

@@ -196,6 +196,7 @@ fn logit(p: f64) -> f32 {
 /// opacity reset). `old_from_new` is overwritten with, for every row after the decision, the
 /// row it was copied from (so per-row data a node keeps beside the set, such as skinning
 /// weights, can follow).
+#[allow(clippy::too_many_arguments)] // each is one input of the decision, as in 3DGS
 pub fn adaptive_density_control(
     config: &DensifyConfig,
     set: &mut GaussianSet,

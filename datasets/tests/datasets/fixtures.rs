@@ -217,7 +217,9 @@ pub(crate) fn ghg_fit(thuman: &Path, subject: &str) {
         .str("move_delta_axis_2")
         .array(&[1], &[-0.01], true);
     w.end_dict().end_object_scalar();
-    let transform = thuman.join(format!("THuman2.0_Release/{subject}/{subject}_transform.npy"));
+    let transform = thuman.join(format!(
+        "THuman2.0_Release/{subject}/{subject}_transform.npy"
+    ));
     std::fs::create_dir_all(transform.parent().unwrap()).unwrap();
     std::fs::write(&transform, npy_object_bytes(&w.finish())).unwrap();
 }

@@ -6,8 +6,7 @@
 //! tests in [`crate::real_layouts`], which reuses these fixtures.
 
 use crate::fixtures::{
-    close, ghg_fixture, write_mask, write_matrix, write_npy_f64, write_npy_u8, write_npz,
-    write_rgb,
+    close, ghg_fixture, write_mask, write_matrix, write_npy_f64, write_npy_u8, write_npz, write_rgb,
 };
 use splatzoo_datasets::formats::check::check;
 use splatzoo_datasets::formats::zju::parameter_index;

@@ -104,7 +104,10 @@ fn drivestudio_empty_dynamic_masks_warn_and_are_not_problems() {
     }
     let d = load(&root, None).unwrap();
     assert_eq!(d.format, Format::Drivestudio);
-    assert!(d.views.iter().all(|v| v.mask.is_some()), "a mask for every image");
+    assert!(
+        d.views.iter().all(|v| v.mask.is_some()),
+        "a mask for every image"
+    );
     let report = check(&d, None);
     assert!(report.problems.is_empty(), "{report:?}");
     let mut warned: Vec<&str> = report.warnings.iter().map(|(f, _)| f.as_str()).collect();
@@ -165,7 +168,10 @@ fn ghg_reads_fits_beside_the_splits_and_warns_for_a_subject_without_one() {
     assert!(track("0005").frames.iter().all(Option::is_none));
     assert_eq!(d.warnings.len(), 1, "{:?}", d.warnings);
     let (file, fact) = &d.warnings[0];
-    assert!(file.ends_with("THuman/THuman2.0_smplx/0005/smplx_param.pkl"), "{file}");
+    assert!(
+        file.ends_with("THuman/THuman2.0_smplx/0005/smplx_param.pkl"),
+        "{file}"
+    );
     assert!(
         fact.contains("subject 0005 has no SMPL-X fit")
             && fact.contains("val/smplx/0005/smplx_param.pkl"),
@@ -190,8 +196,12 @@ fn ghg_reads_fits_beside_the_splits_and_warns_for_a_subject_without_one() {
     let d = load(&split, None).unwrap();
     assert!(track_is_none(&d, "0005"), "no transform yet");
     assert!(
-        d.warnings[0].0.ends_with("val/transform/0005_transform.npy")
-            && d.warnings[0].1.contains("THuman2.0_Release/0005/0005_transform.npy"),
+        d.warnings[0]
+            .0
+            .ends_with("val/transform/0005_transform.npy")
+            && d.warnings[0]
+                .1
+                .contains("THuman2.0_Release/0005/0005_transform.npy"),
         "{:?}",
         d.warnings
     );
@@ -257,7 +267,11 @@ fn ghg_cameras_cover_the_pixels_its_renderer_drew() {
         for y in 0..16 {
             let (xf, yf) = (x as f64, y as f64);
             let by_renderer = inside(drawn, [xf, yf]);
-            assert_eq!(by_renderer, inside(seen, [xf + 0.5, yf + 0.5]), "pixel ({x}, {y})");
+            assert_eq!(
+                by_renderer,
+                inside(seen, [xf + 0.5, yf + 0.5]),
+                "pixel ({x}, {y})"
+            );
             covered += by_renderer as usize;
             unshifted_differs |= by_renderer != inside(drawn, [xf + 0.5, yf + 0.5]);
         }
@@ -313,7 +327,12 @@ fn zju_annots_with_numpy_string_arrays_load_like_lists() {
     std::fs::create_dir_all(&root).unwrap();
     zju_fixture(&root);
     let lists = load(&root, None).unwrap();
-    write_annots_with(&root, [3, 3], |f, c| format!("Camera_B{}/{f:06}.jpg", c + 1), true);
+    write_annots_with(
+        &root,
+        [3, 3],
+        |f, c| format!("Camera_B{}/{f:06}.jpg", c + 1),
+        true,
+    );
     let arrays = load(&root, None).unwrap();
     assert_eq!(arrays.views, lists.views);
     assert_eq!(arrays.people, lists.people);
@@ -321,11 +340,22 @@ fn zju_annots_with_numpy_string_arrays_load_like_lists() {
 
     let refined = dir.path().join("my_377");
     std::fs::create_dir_all(&refined).unwrap();
-    write_annots_with(&refined, [3, 3], |f, c| format!("images/{c:02}/{f:06}.jpg"), true);
+    write_annots_with(
+        &refined,
+        [3, 3],
+        |f, c| format!("images/{c:02}/{f:06}.jpg"),
+        true,
+    );
     for f in 0..2 {
         for c in 0..2 {
             write_rgb(&refined.join(format!("images/{c:02}/{f:06}.jpg")), 10, 8);
-            write_mask(&refined.join(format!("mask/{c:02}/{f:06}.png")), 10, 8, 255, 0);
+            write_mask(
+                &refined.join(format!("mask/{c:02}/{f:06}.png")),
+                10,
+                8,
+                255,
+                0,
+            );
         }
     }
     let d = load(&refined, Some(Format::Zju)).unwrap();
@@ -342,12 +372,23 @@ fn zju_annots_with_numpy_string_arrays_load_like_lists() {
         .str("cams")
         .begin_dict();
     for (key, shape, values) in [
-        ("K", [3, 3], vec![500.0, 0.0, 4.0, 0.0, 500.0, 3.0, 0.0, 0.0, 1.0]),
+        (
+            "K",
+            [3, 3],
+            vec![500.0, 0.0, 4.0, 0.0, 500.0, 3.0, 0.0, 0.0, 1.0],
+        ),
         ("D", [5, 1], vec![0.0; 5]),
-        ("R", [3, 3], vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]),
+        (
+            "R",
+            [3, 3],
+            vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+        ),
         ("T", [3, 1], vec![0.0; 3]),
     ] {
-        w.str(key).begin_list().array(&shape, &values, true).end_list();
+        w.str(key)
+            .begin_list()
+            .array(&shape, &values, true)
+            .end_list();
     }
     w.end_dict().str("ims").begin_list().begin_dict().str("ims");
     w.array(&[2], &[1.0, 2.0], true).end_dict().end_list();

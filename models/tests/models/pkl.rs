@@ -354,11 +354,7 @@ fn string_lists_and_numpy_string_arrays_read_alike() {
         .end_dict();
     let root = unpickle(&w.finish()).unwrap();
     for key in ["list", "array", "grid"] {
-        assert_eq!(
-            to_strings(root.get(key).unwrap()).unwrap(),
-            paths,
-            "{key}"
-        );
+        assert_eq!(to_strings(root.get(key).unwrap()).unwrap(), paths, "{key}");
     }
     let e = to_strings(root.get("numbers").unwrap()).unwrap_err();
     assert!(e.contains("numeric"), "{e}");

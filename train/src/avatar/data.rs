@@ -118,9 +118,10 @@ impl AvatarDataConfig {
         let trained: Vec<bool> = (0..frames).map(|t| !self.is_held_out(t)).collect();
         let (mut train, mut novel_view, mut novel_pose) = (Vec::new(), Vec::new(), Vec::new());
         let mut trained_seen = 0;
-        for t in 0..frames {
-            if trained[t] {
-                let wants_novel = trained_seen % self.novel_view_every == 0 && scene.tracks.len() > 1;
+        for (t, &is_trained) in trained.iter().enumerate() {
+            if is_trained {
+                let wants_novel =
+                    trained_seen % self.novel_view_every == 0 && scene.tracks.len() > 1;
                 trained_seen += 1;
                 let tracks: Vec<usize> = if wants_novel { vec![0, 1] } else { vec![0] };
                 let mut views = tracks
@@ -129,13 +130,25 @@ impl AvatarDataConfig {
                     .collect::<Vec<_>>();
                 if wants_novel {
                     let fixed = views.pop().expect("two views");
-                    novel_view.push(view(&fixed, format!("{}_{t:04}", scene.tracks[1].name), device));
+                    novel_view.push(view(
+                        &fixed,
+                        format!("{}_{t:04}", scene.tracks[1].name),
+                        device,
+                    ));
                 }
                 let first = views.pop().expect("one view");
-                train.push(view(&first, format!("{}_{t:04}", scene.tracks[0].name), device));
+                train.push(view(
+                    &first,
+                    format!("{}_{t:04}", scene.tracks[0].name),
+                    device,
+                ));
             } else {
                 let truth = scene.render_view(t, 0, true);
-                novel_pose.push(view(&truth, format!("{}_{t:04}", scene.tracks[0].name), device));
+                novel_pose.push(view(
+                    &truth,
+                    format!("{}_{t:04}", scene.tracks[0].name),
+                    device,
+                ));
             }
         }
         AvatarCapture {

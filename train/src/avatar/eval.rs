@@ -72,7 +72,11 @@ pub fn track_joints(model: &BodyModel, track: &PoseSequence, device: &Device) ->
         ),
         Tensor::from_data(
             TensorData::new(
-                track.translations.iter().map(|&v| v as f32).collect::<Vec<_>>(),
+                track
+                    .translations
+                    .iter()
+                    .map(|&v| v as f32)
+                    .collect::<Vec<_>>(),
                 [f, 3],
             ),
             device,

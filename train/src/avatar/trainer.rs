@@ -4,7 +4,9 @@
 
 use super::AvatarConfig;
 use super::data::{AvatarCapture, AvatarView};
-use super::eval::{HUMAN_REGION, ViewScores, accumulate_colours, mpjpe_mm, score_views, track_joints};
+use super::eval::{
+    HUMAN_REGION, ViewScores, accumulate_colours, mpjpe_mm, score_views, track_joints,
+};
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::error::TrainError;
 use crate::gaussians::{GaussianSet, SH_C0};
@@ -78,7 +80,9 @@ impl AvatarTrainer {
             frame,
             time: frame as f64 / self.capture.fps,
         };
-        self.node.render(&query, &FrameContext { outputs: &[] }).splats
+        self.node
+            .render(&query, &FrameContext { outputs: &[] })
+            .splats
     }
 
     /// Renders the current avatar (no autodiff) for a view.
@@ -91,7 +95,12 @@ impl AvatarTrainer {
             .iter()
             .map(|v| self.render_view(v))
             .collect::<Result<Vec<_>, _>>()?;
-        Ok(score_views(renders.into_iter(), views, &self.background, lpips))
+        Ok(score_views(
+            renders.into_iter(),
+            views,
+            &self.background,
+            lpips,
+        ))
     }
 
     /// `[F, J, 3]` the joints of the refined track (interpolated at held-out frames).
@@ -117,8 +126,8 @@ impl AvatarTrainer {
                 track.poses[(t * j + k) * 3..(t * j + k) * 3 + 3].copy_from_slice(&a);
             }
             let translation = host_f32(&pose.translation);
-            for a in 0..3 {
-                track.translations[3 * t + a] = translation[a] as f64;
+            for (a, &v) in translation.iter().enumerate() {
+                track.translations[3 * t + a] = v as f64;
             }
         }
         track
@@ -147,7 +156,11 @@ impl AvatarTrainer {
             .iter()
             .zip(&count)
             .flat_map(|(s, &n)| {
-                let mean = if n > 0 { s.map(|v| v / n as f64) } else { [0.5; 3] };
+                let mean = if n > 0 {
+                    s.map(|v| v / n as f64)
+                } else {
+                    [0.5; 3]
+                };
                 mean.map(|c| ((c - 0.5) / SH_C0) as f32)
             })
             .collect();
@@ -202,6 +215,7 @@ impl Method for AvatarTrainer {
         if args.no_pose_refinement {
             sets.push("node.refine_rotations=false".into());
             sets.push("node.refine_translation=false".into());
+            sets.push("node.refine_shape=false".into());
         }
         sets
     }
@@ -283,7 +297,8 @@ impl Method for AvatarTrainer {
         let target = view.masked_target(&self.background).autodiff();
         let photo = photometric(render.color.clone(), target, self.config.lambda_dssim);
         let mut loss = photo.clone()
-            + silhouette(render.alpha.clone(), view.mask.clone().autodiff()) * self.config.mask_weight;
+            + silhouette(render.alpha.clone(), view.mask.clone().autodiff())
+                * self.config.mask_weight;
         if let Some(r) = self.node.regulariser() {
             loss = loss + r;
         }

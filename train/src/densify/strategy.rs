@@ -149,17 +149,15 @@ impl DensityStrategy for Mcmc {
     fn after_step(&mut self, edit: RowEdit<'_>) -> Option<DensifyReport> {
         let rate = edit.optimizer.means_rate(edit.progress);
         mcmc_noise(&self.config, edit.set, rate, edit.rng);
-        self.config
-            .refines_at(edit.step)
-            .then(|| {
-                mcmc_relocate(
-                    &self.config,
-                    edit.set,
-                    edit.optimizer,
-                    edit.rng,
-                    edit.old_from_new,
-                )
-            })
+        self.config.refines_at(edit.step).then(|| {
+            mcmc_relocate(
+                &self.config,
+                edit.set,
+                edit.optimizer,
+                edit.rng,
+                edit.old_from_new,
+            )
+        })
     }
 }
 

@@ -10,8 +10,8 @@ mod node;
 pub mod skinned;
 
 pub use gaussian_node::GaussianNode;
-pub use skinned::SkinnedGaussianNode;
 pub use node::{Bounds, FrameContext, FrameQuery, NodeOutput, SceneNode, StepEnd};
+pub use skinned::SkinnedGaussianNode;
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::densify::DensifyReport;

@@ -2,6 +2,7 @@
 //! losses, metrics, Adam and .ply files, training on every backend, and the skinned-Gaussian
 //! node.
 
+mod avatar;
 mod commands;
 mod losses_and_ply;
 mod skinned;

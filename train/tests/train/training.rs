@@ -305,11 +305,15 @@ fn mcmc_relocation_preserves_opacity_and_moves_every_dead_gaussian() {
     let lineage_rows = set.to_rows();
     for (new, &old) in old_from_new.iter().enumerate() {
         assert!(old < 200, "row {new} from {old}");
-        if new >= 30 && new < 200 {
+        if (30..200).contains(&new) {
             assert_eq!(old, new, "a live row stays itself");
         } else {
             assert!(old >= 30, "row {new} copies a live row, not dead {old}");
-            assert_eq!(lineage_rows.mean(new), lineage_rows.mean(old), "row {new} sits on {old}");
+            assert_eq!(
+                lineage_rows.mean(new),
+                lineage_rows.mean(old),
+                "row {new} sits on {old}"
+            );
         }
     }
     assert_eq!(set.len(), 205, "growth stops at the cap");

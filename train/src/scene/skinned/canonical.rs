@@ -128,12 +128,12 @@ pub fn joint_regressor(model: &BodyModel, anchors: &MeshAnchors) -> Vec<f32> {
         .zip(&anchors.barycentric)
         .enumerate()
     {
-        for c in 0..3 {
+        for (c, &weight) in bary.iter().enumerate() {
             let vertex = model.faces[3 * face as usize + c] as usize;
             if vertex_share[vertex] <= 0.0 {
                 continue;
             }
-            let share = bary[c] as f64 / vertex_share[vertex];
+            let share = weight as f64 / vertex_share[vertex];
             for joint in 0..j {
                 out[joint * g + gi] += model.joint_regressor[joint * v + vertex] as f64 * share;
             }

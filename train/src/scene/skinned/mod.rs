@@ -35,9 +35,15 @@ pub struct SkinnedConfig {
     pub refine_rotations: bool,
     /// Refine each trained frame's root translation.
     pub refine_translation: bool,
+    /// Refine a per-joint rotation offset shared by every frame (with `refine_rotations`).
+    pub refine_sequence_offset: bool,
+    /// Refine the shape coefficients (one shape for the sequence; the skeleton follows).
+    pub refine_shape: bool,
     /// Adam learning rates of the rotation deltas (6-D units) and translation deltas (metres).
     pub rotation_rate: f64,
     pub translation_rate: f64,
+    /// Adam learning rate of the shape coefficients.
+    pub shape_rate: f64,
     /// Weight of the temporal smoothness of consecutive trained frames' deltas.
     pub smoothness_weight: f64,
     /// Learn a per-Gaussian correction of the skinning weights (off by default).
@@ -55,8 +61,11 @@ impl Default for SkinnedConfig {
             skinning: SkinningSource::Barycentric,
             refine_rotations: true,
             refine_translation: true,
-            rotation_rate: 1e-3,
-            translation_rate: 2e-4,
+            refine_sequence_offset: true,
+            refine_shape: true,
+            rotation_rate: 2e-3,
+            translation_rate: 5e-4,
+            shape_rate: 5e-3,
             smoothness_weight: 0.1,
             learn_skinning: false,
             skinning_rate: 1e-3,
@@ -76,6 +85,7 @@ impl SkinnedConfig {
         for (name, v) in [
             ("rotation_rate", self.rotation_rate),
             ("translation_rate", self.translation_rate),
+            ("shape_rate", self.shape_rate),
             ("smoothness_weight", self.smoothness_weight),
             ("skinning_rate", self.skinning_rate),
         ] {

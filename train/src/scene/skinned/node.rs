@@ -3,11 +3,11 @@
 //! frame's refined pose ([`PoseTable`]), an optional learned correction of the skinning
 //! weights, and an optional method-owned non-rigid residual ([`NonRigidField`]).
 
+use super::SkinnedConfig;
 use super::canonical::{self, Placement, joint_regressor, skinning_weights, vertex_anchors};
 use super::non_rigid::{NonRigidField, ResidualInput, ResidualSpace};
 use super::pose_table::{FramePose, PoseTable, Refinement};
 use super::skinning::{JointTransforms, skin_splats};
-use super::SkinnedConfig;
 use crate::adam::{AdamConfig, AdamState};
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::densify::{DensifyConfig, DensifyReport};
@@ -45,9 +45,14 @@ pub struct SkinnedGaussianNode {
     canonical: GaussianNode,
     model: BodyModel,
     body: BodyTensors,
-    /// `[1, S]` the shape the avatar is built with (the prior's mean shape).
+    /// `[1, S]` the avatar's shape (the prior's mean shape at the start, refined with
+    /// `refine_shape`), its step leaf and Adam state.
     betas: Tensor<2>,
-    /// Rest → canonical-pose transforms of the joints.
+    betas_leaf: Option<Tensor<2>>,
+    betas_adam: AdamState<2>,
+    /// `[1, 3 J]` the canonical pose.
+    canonical_pose: Tensor<2>,
+    /// Rest → canonical-pose transforms of the joints at the initial shape.
     canonical_joints: JointTransforms,
     anchors: MeshAnchors,
     /// `[G, J]` skinning weights from the anchors.
@@ -136,7 +141,11 @@ impl SkinnedGaussianNode {
         );
         let rest = pose(
             &body,
-            &PoseInput::from_axis_angle(betas.clone(), canonical_pose, Tensor::zeros([1, 3], device)),
+            &PoseInput::from_axis_angle(
+                betas.clone(),
+                canonical_pose.clone(),
+                Tensor::zeros([1, 3], device),
+            ),
         );
         let vertices = host_f32(&rest.vertices);
         let anchors = match config.placement {
@@ -154,12 +163,16 @@ impl SkinnedGaussianNode {
         let refine = Refinement {
             rotations: config.refine_rotations,
             translation: config.refine_translation,
+            sequence_offset: config.refine_sequence_offset,
         };
         let g = anchors.len();
         let mut node = Self {
             canonical: GaussianNode::new(name, set, rates, densify, extent, seed ^ 0x5C1A_0001),
             body,
+            betas_adam: AdamState::new(&betas),
+            betas_leaf: None,
             betas,
+            canonical_pose,
             canonical_joints,
             weights: Tensor::zeros([g, j], device),
             regressor: Tensor::zeros([j, g], device),
@@ -245,7 +258,10 @@ impl SkinnedGaussianNode {
         match &self.correction {
             None => base,
             Some(c) => {
-                let logits = c.leaf.clone().unwrap_or_else(|| self.lift(c.logits.clone()));
+                let logits = c
+                    .leaf
+                    .clone()
+                    .unwrap_or_else(|| self.lift(c.logits.clone()));
                 softmax((base + 1e-8).log() + logits, 1)
             }
         }
@@ -265,10 +281,14 @@ impl SkinnedGaussianNode {
         } else {
             self.body.clone()
         };
+        let betas = self
+            .betas_leaf
+            .clone()
+            .unwrap_or_else(|| self.lift(self.betas.clone()));
         let posed_body = pose(
             &body,
             &PoseInput {
-                betas: self.lift(self.betas.clone()),
+                betas: betas.clone(),
                 joint_rotations: frame_pose.rotations.clone(),
                 translation: frame_pose.translation.clone(),
                 expression: None,
@@ -278,9 +298,26 @@ impl SkinnedGaussianNode {
             rotations: posed_body.joint_rotations.reshape([j, 3, 3]),
             translations: posed_body.skinning_translations.reshape([j, 3]),
         };
-        let canonical_joints = JointTransforms {
-            rotations: self.lift(self.canonical_joints.rotations.clone()),
-            translations: self.lift(self.canonical_joints.translations.clone()),
+        let canonical_joints = if self.config.refine_shape {
+            // The skeleton follows the shape: canonical transforms at the current shape.
+            let device = betas.device();
+            let rest = pose(
+                &body,
+                &PoseInput::from_axis_angle(
+                    betas,
+                    self.lift(self.canonical_pose.clone()),
+                    self.lift(Tensor::zeros([1, 3], &device)),
+                ),
+            );
+            JointTransforms {
+                rotations: rest.joint_rotations.reshape([j, 3, 3]),
+                translations: rest.skinning_translations.reshape([j, 3]),
+            }
+        } else {
+            JointTransforms {
+                rotations: self.lift(self.canonical_joints.rotations.clone()),
+                translations: self.lift(self.canonical_joints.translations.clone()),
+            }
         };
         let transforms = target.after_inverse_of(&canonical_joints);
         let residual = |splats: Splats, space: ResidualSpace| match &self.non_rigid {
@@ -307,6 +344,60 @@ impl SkinnedGaussianNode {
         }
     }
 
+    /// Restores the avatar itself (canonical Gaussians with their optimiser state, anchors,
+    /// shape, skinning correction) but not the pose table, so a trained avatar can be driven by
+    /// another motion (a node built with that motion as its prior).
+    pub fn load_avatar(
+        &mut self,
+        checkpoint: &Checkpoint,
+        prefix: &str,
+        device: &Device,
+    ) -> Result<(), CheckpointError> {
+        self.canonical.load(checkpoint, prefix, device)?;
+        let g = self.canonical.gaussians();
+        let face_count = self.model.face_count();
+        let faces: Tensor<1> =
+            checkpoint.tensor(&format!("{prefix}.anchors.face"), [Some(g)], device)?;
+        let bary: Tensor<2> = checkpoint.tensor(
+            &format!("{prefix}.anchors.barycentric"),
+            [Some(g), Some(3)],
+            device,
+        )?;
+        let faces = host_f32(&faces);
+        if let Some(bad) = faces
+            .iter()
+            .find(|&&f| f < 0.0 || f.fract() != 0.0 || f as usize >= face_count)
+        {
+            return Err(CheckpointError::Entry {
+                file: checkpoint.origin.clone(),
+                name: format!("{prefix}.anchors.face"),
+                problem: format!("face {bad} is not one of the body model's {face_count} faces"),
+            });
+        }
+        let bary = host_f32(&bary);
+        self.anchors = MeshAnchors {
+            face_from_gaussian: faces.iter().map(|&f| f as u32).collect(),
+            barycentric: bary.chunks(3).map(|b| [b[0], b[1], b[2]]).collect(),
+        };
+        self.refresh_per_row(device);
+        let s = self.betas.dims()[1];
+        self.betas = checkpoint.tensor(&format!("{prefix}.betas"), [Some(1), Some(s)], device)?;
+        self.betas_adam = AdamState::load(checkpoint, &format!("{prefix}.betas"), &self.betas)?;
+        self.betas_leaf = None;
+        if let Some(c) = &mut self.correction {
+            let j = self.model.joint_count();
+            c.logits = checkpoint.tensor(
+                &format!("{prefix}.skinning.logits"),
+                [Some(g), Some(j)],
+                device,
+            )?;
+            c.adam = AdamState::load(checkpoint, &format!("{prefix}.skinning.logits"), &c.logits)?;
+            c.leaf = None;
+        }
+        self.in_step = false;
+        Ok(())
+    }
+
     /// Follows a density edit: every per-row array takes the rows of `old_from_new`.
     fn follow_lineage(&mut self, old_from_new: &[usize]) {
         let device = self.weights.device();
@@ -315,12 +406,16 @@ impl SkinnedGaussianNode {
                 .iter()
                 .map(|&o| self.anchors.face_from_gaussian[o])
                 .collect(),
-            barycentric: old_from_new.iter().map(|&o| self.anchors.barycentric[o]).collect(),
+            barycentric: old_from_new
+                .iter()
+                .map(|&o| self.anchors.barycentric[o])
+                .collect(),
         };
         self.refresh_per_row(&device);
         if let Some(c) = &mut self.correction {
             let index: Vec<i64> = old_from_new.iter().map(|&o| o as i64).collect();
-            let index = Tensor::<1, Int>::from_data(TensorData::new(index, [old_from_new.len()]), &device);
+            let index =
+                Tensor::<1, Int>::from_data(TensorData::new(index, [old_from_new.len()]), &device);
             c.logits = c.logits.clone().select(0, index.clone());
             c.adam.select(index);
         }
@@ -341,6 +436,9 @@ impl SceneNode for SkinnedGaussianNode {
         self.poses.begin_step();
         if let Some(c) = &mut self.correction {
             c.leaf = Some(c.logits.clone().autodiff().require_grad());
+        }
+        if self.config.refine_shape {
+            self.betas_leaf = Some(self.betas.clone().autodiff().require_grad());
         }
         self.in_step = true;
     }
@@ -385,6 +483,17 @@ impl SceneNode for SkinnedGaussianNode {
                 .adam
                 .step(c.logits.clone(), g, self.config.skinning_rate, &adam);
         }
+        if let Some(leaf) = self.betas_leaf.take()
+            && let Some(g) = leaf.grad(end.grads)
+        {
+            let adam = AdamConfig {
+                epsilon: 1e-8,
+                ..AdamConfig::default()
+            };
+            self.betas = self
+                .betas_adam
+                .step(self.betas.clone(), g, self.config.shape_rate, &adam);
+        }
         if let Some(lineage) = self.canonical.take_lineage() {
             self.follow_lineage(&lineage);
         }
@@ -396,7 +505,12 @@ impl SceneNode for SkinnedGaussianNode {
         self.canonical.save(checkpoint, prefix);
         let device = self.weights.device();
         let g = self.anchors.len();
-        let faces: Vec<f32> = self.anchors.face_from_gaussian.iter().map(|&f| f as f32).collect();
+        let faces: Vec<f32> = self
+            .anchors
+            .face_from_gaussian
+            .iter()
+            .map(|&f| f as f32)
+            .collect();
         let bary: Vec<f32> = self.anchors.barycentric.iter().flatten().copied().collect();
         checkpoint.put(
             &format!("{prefix}.anchors.face"),
@@ -407,9 +521,12 @@ impl SceneNode for SkinnedGaussianNode {
             &Tensor::<2>::from_data(TensorData::new(bary, [g, 3]), &device),
         );
         self.poses.save(checkpoint, &format!("{prefix}.poses"));
+        checkpoint.put(&format!("{prefix}.betas"), &self.betas);
+        self.betas_adam.save(checkpoint, &format!("{prefix}.betas"));
         if let Some(c) = &self.correction {
             checkpoint.put(&format!("{prefix}.skinning.logits"), &c.logits);
-            c.adam.save(checkpoint, &format!("{prefix}.skinning.logits"));
+            c.adam
+                .save(checkpoint, &format!("{prefix}.skinning.logits"));
         }
     }
 
@@ -419,42 +536,7 @@ impl SceneNode for SkinnedGaussianNode {
         prefix: &str,
         device: &Device,
     ) -> Result<(), CheckpointError> {
-        self.canonical.load(checkpoint, prefix, device)?;
-        let g = self.canonical.gaussians();
-        let face_count = self.model.face_count();
-        let faces: Tensor<1> =
-            checkpoint.tensor(&format!("{prefix}.anchors.face"), [Some(g)], device)?;
-        let bary: Tensor<2> =
-            checkpoint.tensor(&format!("{prefix}.anchors.barycentric"), [Some(g), Some(3)], device)?;
-        let faces = host_f32(&faces);
-        if let Some(bad) = faces
-            .iter()
-            .find(|&&f| f < 0.0 || f.fract() != 0.0 || f as usize >= face_count)
-        {
-            return Err(CheckpointError::Entry {
-                file: checkpoint.origin.clone(),
-                name: format!("{prefix}.anchors.face"),
-                problem: format!("face {bad} is not one of the body model's {face_count} faces"),
-            });
-        }
-        let bary = host_f32(&bary);
-        self.anchors = MeshAnchors {
-            face_from_gaussian: faces.iter().map(|&f| f as u32).collect(),
-            barycentric: bary.chunks(3).map(|b| [b[0], b[1], b[2]]).collect(),
-        };
-        self.refresh_per_row(device);
-        self.poses.load(checkpoint, &format!("{prefix}.poses"))?;
-        if let Some(c) = &mut self.correction {
-            let j = self.model.joint_count();
-            c.logits = checkpoint.tensor(
-                &format!("{prefix}.skinning.logits"),
-                [Some(g), Some(j)],
-                device,
-            )?;
-            c.adam = AdamState::load(checkpoint, &format!("{prefix}.skinning.logits"), &c.logits)?;
-            c.leaf = None;
-        }
-        self.in_step = false;
-        Ok(())
+        self.load_avatar(checkpoint, prefix, device)?;
+        self.poses.load(checkpoint, &format!("{prefix}.poses"))
     }
 }

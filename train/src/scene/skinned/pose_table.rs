@@ -1,6 +1,8 @@
 //! Per-frame body parameters refined during training: a 6-D rotation delta on every joint of
-//! the prior (`R_j = R_j^prior · Δ_j`, joint 0 the global orientation; Zhou et al.'s 6-D
-//! representation) and a root-translation delta, one row per frame. Only frames with training
+//! the prior (`R_j = R_j^prior · O_j · Δ_j`, joint 0 the global orientation; Zhou et al.'s 6-D
+//! representation) and a root-translation delta, one row per frame, with an optional offset
+//! `O_j` shared by every frame (a pose estimator's systematic bias is the same in each frame,
+//! so all frames' gradients correct it at once). Only frames with training
 //! images are refined; the pose at any other frame is interpolated from the nearest trained
 //! frames on each side (slerp of the deltas, linear translation), so no held-out image is read.
 //! A temporal-smoothness term ties consecutive trained frames.
@@ -23,6 +25,18 @@ type Matrix = [[f64; 3]; 3];
 pub struct Refinement {
     pub rotations: bool,
     pub translation: bool,
+    /// The per-joint offset shared by all frames (with `rotations`).
+    pub sequence_offset: bool,
+}
+
+/// One step's autodiff leaves of a table.
+pub struct TableLeaves {
+    /// `[F, J, 6]`.
+    pub deltas: Tensor<3>,
+    /// `[F, 3]`.
+    pub translations: Tensor<2>,
+    /// `[J, 6]`.
+    pub offsets: Tensor<2>,
 }
 
 /// A frame's body parameters as tensors: `[1, J, 3, 3]` local rotations and `[1, 3]` root
@@ -42,11 +56,14 @@ pub struct PoseTable {
     pub deltas: Tensor<3>,
     /// `[F, 3]` metres, zero at the start.
     pub translation_deltas: Tensor<2>,
+    /// `[J, 6]` the shared offset, identity at the start.
+    pub offsets: Tensor<2>,
     trained: Vec<bool>,
     refine: Refinement,
-    leaves: Option<(Tensor<3>, Tensor<2>)>,
+    leaves: Option<TableLeaves>,
     rotation_adam: AdamState<3>,
     translation_adam: AdamState<2>,
+    offset_adam: AdamState<2>,
 }
 
 fn adam() -> AdamConfig {
@@ -58,7 +75,12 @@ fn adam() -> AdamConfig {
 
 impl PoseTable {
     /// A table over `prior` (one row per frame), refining the frames where `trained` is true.
-    pub fn new(prior: &PoseSequence, trained: Vec<bool>, refine: Refinement, device: &Device) -> Self {
+    pub fn new(
+        prior: &PoseSequence,
+        trained: Vec<bool>,
+        refine: Refinement,
+        device: &Device,
+    ) -> Self {
         let (f, j) = (prior.frames(), prior.joints);
         assert_eq!(trained.len(), f, "one trained flag per frame");
         let rotations: Vec<f32> = (0..f)
@@ -78,7 +100,11 @@ impl PoseTable {
             device,
         );
         let translation_deltas = Tensor::<2>::zeros([f, 3], device);
+        let offsets =
+            Tensor::<2>::from_data(TensorData::new(IDENTITY_6D.repeat(j), [j, 6]), device);
         Self {
+            offset_adam: AdamState::new(&offsets),
+            offsets,
             joints: j,
             prior_rotations: Tensor::from_data(TensorData::new(rotations, [f, j, 3, 3]), device),
             prior_translations: Tensor::from_data(TensorData::new(translations, [f, 3]), device),
@@ -111,23 +137,37 @@ impl PoseTable {
     /// Fresh autodiff leaves of the refined parameters.
     pub fn begin_step(&mut self) {
         if self.refine.rotations || self.refine.translation {
-            self.leaves = Some((
-                self.deltas.clone().autodiff().require_grad(),
-                self.translation_deltas.clone().autodiff().require_grad(),
-            ));
+            self.leaves = Some(TableLeaves {
+                deltas: self.deltas.clone().autodiff().require_grad(),
+                translations: self.translation_deltas.clone().autodiff().require_grad(),
+                offsets: self.offsets.clone().autodiff().require_grad(),
+            });
         }
     }
 
-    /// This step's leaves (rotation deltas, translation deltas), inside a step.
-    pub fn leaves(&self) -> Option<(&Tensor<3>, &Tensor<2>)> {
-        self.leaves.as_ref().map(|(d, t)| (d, t))
+    /// This step's leaves, inside a step.
+    pub fn leaves(&self) -> Option<&TableLeaves> {
+        self.leaves.as_ref()
     }
 
     fn current(&self) -> (Tensor<3>, Tensor<2>) {
         match &self.leaves {
-            Some((d, t)) => (d.clone(), t.clone()),
+            Some(l) => (l.deltas.clone(), l.translations.clone()),
             None => (self.deltas.clone(), self.translation_deltas.clone()),
         }
+    }
+
+    /// `[J, 3, 3]` the shared offset's rotations (identity when it is off).
+    fn offset_rotations(&self, autodiff: bool) -> Option<Tensor<3>> {
+        if !(self.refine.rotations && self.refine.sequence_offset) {
+            return None;
+        }
+        let offsets = match &self.leaves {
+            Some(l) => l.offsets.clone(),
+            None if autodiff => self.offsets.clone().autodiff(),
+            None => self.offsets.clone(),
+        };
+        Some(rotation_6d_to_matrix(offsets))
     }
 
     /// The pose at `frame`: the refined row where the frame was trained, otherwise interpolated
@@ -146,18 +186,30 @@ impl PoseTable {
         let prior_trans = lift2(self.prior_translations.clone()).slice([frame..frame + 1, 0..3]);
         let (delta_rot, delta_trans) = if self.is_trained(frame) {
             let (d, t) = self.current();
-            let d = lift3(d).slice([frame..frame + 1, 0..j, 0..6]).reshape([j, 6]);
-            (rotation_6d_to_matrix(d), lift2(t).slice([frame..frame + 1, 0..3]))
+            let d = lift3(d)
+                .slice([frame..frame + 1, 0..j, 0..6])
+                .reshape([j, 6]);
+            (
+                rotation_6d_to_matrix(d),
+                lift2(t).slice([frame..frame + 1, 0..3]),
+            )
         } else {
             let (rot, trans) = self.interpolated(frame);
             let rot: Vec<f32> = rot.iter().flatten().flatten().map(|&v| v as f32).collect();
             (
-                lift3(Tensor::<3>::from_data(TensorData::new(rot, [j, 3, 3]), &device)),
+                lift3(Tensor::<3>::from_data(
+                    TensorData::new(rot, [j, 3, 3]),
+                    &device,
+                )),
                 lift2(Tensor::<2>::from_data(
                     TensorData::new(trans.map(|v| v as f32).to_vec(), [1, 3]),
                     &device,
                 )),
             )
+        };
+        let delta_rot = match self.offset_rotations(autodiff) {
+            Some(offset) => offset.matmul(delta_rot),
+            None => delta_rot,
         };
         let rotations = if self.refine.rotations {
             prior_rot.matmul(delta_rot)
@@ -185,8 +237,7 @@ impl PoseTable {
         let row = |t: usize| -> (Vec<Matrix>, [f64; 3]) {
             let rot = (0..j)
                 .map(|k| {
-                    let r6: [f64; 6] =
-                        std::array::from_fn(|c| deltas[(t * j + k) * 6 + c] as f64);
+                    let r6: [f64; 6] = std::array::from_fn(|c| deltas[(t * j + k) * 6 + c] as f64);
                     matrix_from_6d(r6)
                 })
                 .collect();
@@ -218,7 +269,9 @@ impl PoseTable {
         }
         let (d, t) = self.current();
         let device = d.device();
-        let index = |v: &[i64]| Tensor::<1, Int>::from_data(TensorData::new(v.to_vec(), [v.len()]), &device);
+        let index = |v: &[i64]| {
+            Tensor::<1, Int>::from_data(TensorData::new(v.to_vec(), [v.len()]), &device)
+        };
         let (a, b) = (index(&trained[..trained.len() - 1]), index(&trained[1..]));
         let mut term = Tensor::<1>::zeros([1], &device);
         if self.refine.rotations {
@@ -228,16 +281,20 @@ impl PoseTable {
                     .mean();
         }
         if self.refine.translation {
-            term = term + (t.clone().select(0, a) - t.select(0, b)).powi_scalar(2).mean();
+            term = term
+                + (t.clone().select(0, a) - t.select(0, b))
+                    .powi_scalar(2)
+                    .mean();
         }
         Some(term)
     }
 
     /// One Adam step on the refined parameters, from this step's gradients.
     pub fn end_step(&mut self, grads: &Gradients, rotation_rate: f64, translation_rate: f64) {
-        let Some((d, t)) = self.leaves.take() else {
+        let Some(leaves) = self.leaves.take() else {
             return;
         };
+        let (d, t) = (leaves.deltas, leaves.translations);
         if self.refine.rotations
             && let Some(g) = d.grad(grads)
         {
@@ -245,19 +302,37 @@ impl PoseTable {
                 .rotation_adam
                 .step(self.deltas.clone(), g, rotation_rate, &adam());
         }
+        if self.refine.rotations
+            && self.refine.sequence_offset
+            && let Some(g) = leaves.offsets.grad(grads)
+        {
+            self.offsets = self
+                .offset_adam
+                .step(self.offsets.clone(), g, rotation_rate, &adam());
+        }
         if self.refine.translation
             && let Some(g) = t.grad(grads)
         {
-            self.translation_deltas =
-                self.translation_adam
-                    .step(self.translation_deltas.clone(), g, translation_rate, &adam());
+            self.translation_deltas = self.translation_adam.step(
+                self.translation_deltas.clone(),
+                g,
+                translation_rate,
+                &adam(),
+            );
         }
     }
 
     pub fn save(&self, checkpoint: &mut Checkpoint, prefix: &str) {
         checkpoint.put(&format!("{prefix}.deltas"), &self.deltas);
-        checkpoint.put(&format!("{prefix}.translation_deltas"), &self.translation_deltas);
-        self.rotation_adam.save(checkpoint, &format!("{prefix}.deltas"));
+        checkpoint.put(
+            &format!("{prefix}.translation_deltas"),
+            &self.translation_deltas,
+        );
+        self.rotation_adam
+            .save(checkpoint, &format!("{prefix}.deltas"));
+        checkpoint.put(&format!("{prefix}.offsets"), &self.offsets);
+        self.offset_adam
+            .save(checkpoint, &format!("{prefix}.offsets"));
         self.translation_adam
             .save(checkpoint, &format!("{prefix}.translation_deltas"));
     }
@@ -265,10 +340,22 @@ impl PoseTable {
     pub fn load(&mut self, checkpoint: &Checkpoint, prefix: &str) -> Result<(), CheckpointError> {
         let device = self.deltas.device();
         let [f, j, _] = self.deltas.dims();
-        self.deltas = checkpoint.tensor(&format!("{prefix}.deltas"), [Some(f), Some(j), Some(6)], &device)?;
-        self.translation_deltas =
-            checkpoint.tensor(&format!("{prefix}.translation_deltas"), [Some(f), Some(3)], &device)?;
-        self.rotation_adam = AdamState::load(checkpoint, &format!("{prefix}.deltas"), &self.deltas)?;
+        self.deltas = checkpoint.tensor(
+            &format!("{prefix}.deltas"),
+            [Some(f), Some(j), Some(6)],
+            &device,
+        )?;
+        self.translation_deltas = checkpoint.tensor(
+            &format!("{prefix}.translation_deltas"),
+            [Some(f), Some(3)],
+            &device,
+        )?;
+        self.rotation_adam =
+            AdamState::load(checkpoint, &format!("{prefix}.deltas"), &self.deltas)?;
+        self.offsets =
+            checkpoint.tensor(&format!("{prefix}.offsets"), [Some(j), Some(6)], &device)?;
+        self.offset_adam =
+            AdamState::load(checkpoint, &format!("{prefix}.offsets"), &self.offsets)?;
         self.translation_adam = AdamState::load(
             checkpoint,
             &format!("{prefix}.translation_deltas"),

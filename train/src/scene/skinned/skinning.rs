@@ -4,7 +4,9 @@
 //! part (Gram–Schmidt) rotates the Gaussian. Scales, opacities and colours are kept.
 
 use burn::tensor::{Tensor, TensorData};
-use splatzoo_models::rotation::{matrix_to_quaternion, matrix_to_rotation_6d, rotation_6d_to_matrix};
+use splatzoo_models::rotation::{
+    matrix_to_quaternion, matrix_to_rotation_6d, rotation_6d_to_matrix,
+};
 use splatzoo_rasterizer::Splats;
 
 /// Rigid transforms of the joints, `x ↦ R_j x + t_j`.
@@ -25,7 +27,10 @@ impl JointTransforms {
     /// `self` puts it (canonical pose → target pose when both start from the rest pose).
     pub fn after_inverse_of(&self, other: &JointTransforms) -> JointTransforms {
         let j = self.joints();
-        let rotations = self.rotations.clone().matmul(other.rotations.clone().swap_dims(1, 2));
+        let rotations = self
+            .rotations
+            .clone()
+            .matmul(other.rotations.clone().swap_dims(1, 2));
         let moved = rotations
             .clone()
             .matmul(other.translations.clone().reshape([j, 3, 1]))
@@ -47,8 +52,11 @@ impl JointTransforms {
             ],
             2,
         );
-        let bottom = Tensor::<3>::from_data(TensorData::new(vec![0.0f32, 0.0, 0.0, 1.0], [1, 1, 4]), &device)
-            .expand([j, 1, 4]);
+        let bottom = Tensor::<3>::from_data(
+            TensorData::new(vec![0.0f32, 0.0, 0.0, 1.0], [1, 1, 4]),
+            &device,
+        )
+        .expand([j, 1, 4]);
         Tensor::cat(vec![top, bottom], 1)
     }
 }
@@ -61,9 +69,15 @@ pub fn quaternion_product(a: Tensor<2>, b: Tensor<2>) -> Tensor<2> {
     let (bw, bx, by, bz) = (c(&b, 0), c(&b, 1), c(&b, 2), c(&b, 3));
     Tensor::cat(
         vec![
-            aw.clone() * bw.clone() - ax.clone() * bx.clone() - ay.clone() * by.clone() - az.clone() * bz.clone(),
-            aw.clone() * bx.clone() + ax.clone() * bw.clone() + ay.clone() * bz.clone() - az.clone() * by.clone(),
-            aw.clone() * by.clone() - ax.clone() * bz.clone() + ay.clone() * bw.clone() + az.clone() * bx.clone(),
+            aw.clone() * bw.clone()
+                - ax.clone() * bx.clone()
+                - ay.clone() * by.clone()
+                - az.clone() * bz.clone(),
+            aw.clone() * bx.clone() + ax.clone() * bw.clone() + ay.clone() * bz.clone()
+                - az.clone() * by.clone(),
+            aw.clone() * by.clone() - ax.clone() * bz.clone()
+                + ay.clone() * bw.clone()
+                + az.clone() * bx.clone(),
             aw * bz + ax * by - ay * bx + az * bw,
         ],
         1,
@@ -75,8 +89,11 @@ pub fn unit_quaternions(q: Tensor<2>) -> Tensor<2> {
     let n = q.dims()[0];
     let norm = q.clone().powi_scalar(2).sum_dim(1).sqrt(); // [N, 1]
     let zero = norm.clone().lower_equal_elem(1e-12);
-    let identity = Tensor::<2>::from_data(TensorData::new(vec![1.0f32, 0.0, 0.0, 0.0], [1, 4]), &q.device())
-        .expand([n, 4]);
+    let identity = Tensor::<2>::from_data(
+        TensorData::new(vec![1.0f32, 0.0, 0.0, 0.0], [1, 4]),
+        &q.device(),
+    )
+    .expand([n, 4]);
     (q / norm.clamp_min(1e-12)).mask_where(zero.expand([n, 4]), identity)
 }
 
