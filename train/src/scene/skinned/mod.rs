@@ -46,6 +46,8 @@ pub struct SkinnedConfig {
     pub shape_rate: f64,
     /// Weight of the temporal smoothness of consecutive trained frames' deltas.
     pub smoothness_weight: f64,
+    /// Weight of the refinement's distance from the prior (0: unconstrained).
+    pub pose_prior_weight: f64,
     /// Learn a per-Gaussian correction of the skinning weights (off by default).
     pub learn_skinning: bool,
     pub skinning_rate: f64,
@@ -67,6 +69,7 @@ impl Default for SkinnedConfig {
             translation_rate: 5e-4,
             shape_rate: 5e-3,
             smoothness_weight: 0.1,
+            pose_prior_weight: 0.0,
             learn_skinning: false,
             skinning_rate: 1e-3,
         }
@@ -87,6 +90,7 @@ impl SkinnedConfig {
             ("translation_rate", self.translation_rate),
             ("shape_rate", self.shape_rate),
             ("smoothness_weight", self.smoothness_weight),
+            ("pose_prior_weight", self.pose_prior_weight),
             ("skinning_rate", self.skinning_rate),
         ] {
             if !(v.is_finite() && v >= 0.0) {

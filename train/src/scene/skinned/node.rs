@@ -458,6 +458,14 @@ impl SceneNode for SkinnedGaussianNode {
             .poses
             .smoothness()
             .map(|s| s * self.config.smoothness_weight);
+        let anchored = (self.config.pose_prior_weight > 0.0)
+            .then(|| self.poses.prior_distance())
+            .flatten()
+            .map(|d| d * self.config.pose_prior_weight);
+        let smooth = match (smooth, anchored) {
+            (Some(a), Some(b)) => Some(a + b),
+            (a, b) => a.or(b),
+        };
         match (self.canonical.regulariser(), smooth) {
             (Some(a), Some(b)) => Some(a + b),
             (a, b) => a.or(b),

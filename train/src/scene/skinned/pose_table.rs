@@ -256,6 +256,28 @@ impl PoseTable {
         }
     }
 
+    /// Mean squared distance of the refinement from the prior: rotation deltas (and the shared
+    /// offset) from the identity in 6-D, translation deltas from zero (metres), on this step's
+    /// leaves.
+    pub fn prior_distance(&self) -> Option<Tensor<1>> {
+        let leaves = self.leaves.as_ref()?;
+        let device = leaves.deltas.device();
+        let identity = Tensor::<1>::from_floats(IDENTITY_6D, &device);
+        let mut term = Tensor::<1>::zeros([1], &device);
+        if self.refine.rotations {
+            let d = leaves.deltas.clone() - identity.clone().reshape([1, 1, 6]);
+            term = term + d.powi_scalar(2).mean();
+            if self.refine.sequence_offset {
+                let o = leaves.offsets.clone() - identity.reshape([1, 6]);
+                term = term + o.powi_scalar(2).mean();
+            }
+        }
+        if self.refine.translation {
+            term = term + leaves.translations.clone().powi_scalar(2).mean();
+        }
+        Some(term)
+    }
+
     /// Mean squared difference of consecutive trained frames' deltas (6-D rows and
     /// translations, metres), on this step's leaves.
     pub fn smoothness(&self) -> Option<Tensor<1>> {
