@@ -473,6 +473,18 @@ fn held_out_frames_interpolate_their_trained_neighbours() {
     table.begin_step();
     let smooth = scalar(table.smoothness().unwrap());
     assert!(smooth > 0.0, "rows 0 and 3 differ: {smooth}");
+    // Distance from the prior: rows 0 and 3 of 6 moved by (A, t₀) and (B, t₃).
+    let six_a = six(&a);
+    let six_b = six(&b);
+    let identity = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    let sq = |v: [f64; 6]| (0..6).map(|c| (v[c] - identity[c]).powi(2)).sum::<f64>();
+    let expected =
+        2.0 * (sq(six_a) + sq(six_b)) / (6.0 * 2.0 * 6.0) + (0.09 + 0.09 + 0.36 + 0.09) / 18.0;
+    let distance = scalar(table.prior_distance().unwrap());
+    assert!(
+        (distance - expected).abs() < 1e-5,
+        "{distance} vs {expected}"
+    );
     let fresh = {
         let mut t = PoseTable::new(
             &prior,
@@ -485,9 +497,12 @@ fn held_out_frames_interpolate_their_trained_neighbours() {
             &device,
         );
         t.begin_step();
-        scalar(t.smoothness().unwrap())
+        (
+            scalar(t.smoothness().unwrap()),
+            scalar(t.prior_distance().unwrap()),
+        )
     };
-    assert_eq!(fresh, 0.0);
+    assert_eq!(fresh, (0.0, 0.0));
 }
 
 #[test]
