@@ -6,11 +6,11 @@
 //! harness; later methods reuse it as their scene-prior stage.
 
 use crate::backend::Backend;
-use crate::checkpoint::{Checkpoint, CheckpointError};
+use crate::checkpoint::Checkpoint;
 use crate::densify::{DensifyConfig, Strategy};
 use crate::error::TrainError;
 use crate::gaussians::GaussianSet;
-use crate::harness::{Evaluation, Method, MethodConfig, Say, ScoreSum, StepReport};
+use crate::harness::{EpochOrder, Evaluation, Method, MethodConfig, Say, ScoreSum, StepReport};
 use crate::images::{side_by_side, srgb_image, write_png};
 use crate::loss::{photometric, psnr, scalar, ssim};
 use crate::lpips::Lpips;
@@ -20,7 +20,6 @@ use crate::scene::{FrameQuery, GaussianNode, SceneGraph};
 use crate::views::{DataConfig, ViewSet};
 use burn::tensor::{Device, Tensor};
 use serde::{Deserialize, Serialize};
-use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render};
 use std::path::{Path, PathBuf};
 
@@ -109,9 +108,7 @@ pub struct StaticTrainer {
     /// Steps taken.
     pub step: usize,
     /// Orders the training views.
-    rng: Rng,
-    /// Training views still to visit in this epoch (taken from the back).
-    order: Vec<usize>,
+    order: EpochOrder,
     background: Tensor<1>,
 }
 
@@ -184,12 +181,11 @@ impl StaticTrainer {
         );
         let background = Tensor::<1>::from_floats(views.background.as_slice(), device);
         Ok(Self {
-            rng: Rng(config.seed ^ 0x3D65_0000),
+            order: EpochOrder::new(config.seed ^ 0x3D65_0000),
             config,
             views,
             graph: SceneGraph::new().with(node),
             step: 0,
-            order: Vec::new(),
             background,
         })
     }
@@ -238,20 +234,8 @@ impl Method for StaticTrainer {
         let views = ViewSet::load(&config.data, device)?;
         let mut trainer = Self::assemble(config, views, device)?;
         trainer.graph.load(checkpoint, device)?;
-        trainer.rng = Rng(checkpoint.meta_parsed("rng")?);
         trainer.step = checkpoint.meta_parsed("step")?;
-        let order = checkpoint.meta("order")?;
-        let train_views = trainer.views.train.len();
-        trainer.order = order
-            .split(',')
-            .filter(|s| !s.is_empty())
-            .map(|s| s.parse::<usize>().ok().filter(|&i| i < train_views))
-            .collect::<Option<Vec<_>>>()
-            .ok_or_else(|| CheckpointError::Entry {
-                file: checkpoint.origin.clone(),
-                name: "order".into(),
-                problem: format!("expected view indices below {train_views}"),
-            })?;
+        trainer.order = EpochOrder::load(checkpoint, trainer.views.train.len())?;
         Ok(trainer)
     }
 
@@ -271,11 +255,7 @@ impl Method for StaticTrainer {
 
     /// One optimiser step on the next training view, then density control where scheduled.
     fn step(&mut self) -> Result<StepReport, TrainError> {
-        if self.order.is_empty() {
-            self.order = (0..self.views.train.len()).collect();
-            self.rng.shuffle(&mut self.order);
-        }
-        let view = &self.views.train[self.order.pop().expect("refilled above")];
+        let view = &self.views.train[self.order.next(self.views.train.len())];
         let settings = self.settings(view.camera);
         self.graph.begin_step();
         let query = FrameQuery {
@@ -333,9 +313,7 @@ impl Method for StaticTrainer {
     fn checkpoint(&self) -> Checkpoint {
         let mut c = Checkpoint::default();
         self.graph.save(&mut c);
-        c.put_meta("rng", self.rng.0);
-        let order: Vec<String> = self.order.iter().map(|i| i.to_string()).collect();
-        c.put_meta("order", order.join(","));
+        self.order.save(&mut c);
         c
     }
 

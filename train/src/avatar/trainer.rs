@@ -7,10 +7,10 @@ use super::data::{AvatarCapture, AvatarView};
 use super::eval::{
     HUMAN_REGION, ViewScores, accumulate_colours, mpjpe_mm, score_views, track_joints,
 };
-use crate::checkpoint::{Checkpoint, CheckpointError};
+use crate::checkpoint::Checkpoint;
 use crate::error::TrainError;
 use crate::gaussians::{GaussianSet, SH_C0};
-use crate::harness::{Evaluation, Method, MethodConfig, Say, Scores, StepReport};
+use crate::harness::{EpochOrder, Evaluation, Method, MethodConfig, Say, Scores, StepReport};
 use crate::host_f32;
 use crate::images::{side_by_side, srgb_image, write_png};
 use crate::loss::{photometric, scalar, silhouette};
@@ -19,7 +19,6 @@ use crate::ply::write_ply;
 use crate::scene::{FrameContext, FrameQuery, SceneNode, SkinnedGaussianNode, StepEnd};
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::pose_sequence::{PoseSequence, write_pose_sequence};
-use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_models::body::{BodyModel, builtin_body};
 use splatzoo_models::rotation_scalar::matrix_axis_angle;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render, Splats, rasterize};
@@ -45,9 +44,8 @@ pub struct AvatarTrainer {
     pub node: SkinnedGaussianNode,
     model: BodyModel,
     pub step: usize,
-    rng: Rng,
-    /// Training views still to visit in this epoch (taken from the back).
-    order: Vec<usize>,
+    /// Orders the training frames.
+    order: EpochOrder,
     background: Tensor<1>,
 }
 
@@ -187,13 +185,12 @@ impl AvatarTrainer {
         )?;
         let background = Tensor::<1>::from_floats(config.background.as_slice(), device);
         Ok(Self {
-            rng: Rng(config.seed ^ 0xA7A7_0000),
+            order: EpochOrder::new(config.seed ^ 0xA7A7_0000),
             config,
             capture,
             node,
             model,
             step: 0,
-            order: Vec::new(),
             background,
         })
     }
@@ -231,20 +228,8 @@ impl Method for AvatarTrainer {
     ) -> Result<Self, TrainError> {
         let mut trainer = Self::assemble(config, device)?;
         trainer.node.load(checkpoint, HUMAN, device)?;
-        trainer.rng = Rng(checkpoint.meta_parsed("rng")?);
         trainer.step = checkpoint.meta_parsed("step")?;
-        let views = trainer.capture.train.len();
-        trainer.order = checkpoint
-            .meta("order")?
-            .split(',')
-            .filter(|s| !s.is_empty())
-            .map(|s| s.parse::<usize>().ok().filter(|&i| i < views))
-            .collect::<Option<Vec<_>>>()
-            .ok_or_else(|| CheckpointError::Entry {
-                file: checkpoint.origin.clone(),
-                name: "order".into(),
-                problem: format!("expected view indices below {views}"),
-            })?;
+        trainer.order = EpochOrder::load(checkpoint, trainer.capture.train.len())?;
         Ok(trainer)
     }
 
@@ -286,11 +271,7 @@ impl Method for AvatarTrainer {
 
     /// One optimiser step on the next training frame.
     fn step(&mut self) -> Result<StepReport, TrainError> {
-        if self.order.is_empty() {
-            self.order = (0..self.capture.train.len()).collect();
-            self.rng.shuffle(&mut self.order);
-        }
-        let index = self.order.pop().expect("refilled above");
+        let index = self.order.next(self.capture.train.len());
         self.node.begin_step();
         let view = &self.capture.train[index];
         let render = self.raster(&self.splats(&view.camera, view.frame), view.camera, true)?;
@@ -346,9 +327,7 @@ impl Method for AvatarTrainer {
     fn checkpoint(&self) -> Checkpoint {
         let mut c = Checkpoint::default();
         self.node.save(&mut c, HUMAN);
-        c.put_meta("rng", self.rng.0);
-        let order: Vec<String> = self.order.iter().map(|i| i.to_string()).collect();
-        c.put_meta("order", order.join(","));
+        self.order.save(&mut c);
         c
     }
 

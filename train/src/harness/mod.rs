@@ -10,8 +10,10 @@
 //! `train-<method>` binary is `fn main() -> ExitCode { cli::main::<MyMethod>() }`.
 
 pub mod cli;
+mod epoch;
 mod metrics;
 
+pub use epoch::EpochOrder;
 pub use metrics::{Evaluation, History, ScoreSum, Scores};
 
 use crate::backend::Backend;

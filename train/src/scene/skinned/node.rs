@@ -6,9 +6,9 @@
 use super::SkinnedConfig;
 use super::canonical::{self, Placement, joint_regressor, skinning_weights, vertex_anchors};
 use super::non_rigid::{NonRigidField, ResidualInput, ResidualSpace};
-use super::pose_table::{FramePose, PoseTable, Refinement};
+use super::pose_table::{FramePose, PoseTable, Refinement, adam};
 use super::skinning::{JointTransforms, skin_splats};
-use crate::adam::{AdamConfig, AdamState};
+use crate::adam::AdamState;
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::densify::{DensifyConfig, DensifyReport};
 use crate::error::TrainError;
@@ -483,24 +483,16 @@ impl SceneNode for SkinnedGaussianNode {
             && let Some(leaf) = c.leaf.take()
             && let Some(g) = leaf.grad(end.grads)
         {
-            let adam = AdamConfig {
-                epsilon: 1e-8,
-                ..AdamConfig::default()
-            };
             c.logits = c
                 .adam
-                .step(c.logits.clone(), g, self.config.skinning_rate, &adam);
+                .step(c.logits.clone(), g, self.config.skinning_rate, &adam());
         }
         if let Some(leaf) = self.betas_leaf.take()
             && let Some(g) = leaf.grad(end.grads)
         {
-            let adam = AdamConfig {
-                epsilon: 1e-8,
-                ..AdamConfig::default()
-            };
-            self.betas = self
-                .betas_adam
-                .step(self.betas.clone(), g, self.config.shape_rate, &adam);
+            self.betas =
+                self.betas_adam
+                    .step(self.betas.clone(), g, self.config.shape_rate, &adam());
         }
         if let Some(lineage) = self.canonical.take_lineage() {
             self.follow_lineage(&lineage);

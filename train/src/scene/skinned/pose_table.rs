@@ -66,7 +66,8 @@ pub struct PoseTable {
     offset_adam: AdamState<2>,
 }
 
-fn adam() -> AdamConfig {
+/// Adam for body parameters (ε = 1e-8, not the 3DGS 1e-15: these are not Gaussians).
+pub(super) fn adam() -> AdamConfig {
     AdamConfig {
         epsilon: 1e-8,
         ..AdamConfig::default()
