@@ -101,6 +101,30 @@ impl PoseSequence {
     }
 }
 
+/// Which world axis is up in a pose file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum UpAxis {
+    /// AMASS and most mocap releases.
+    Z,
+    /// Already in the bodies' frame (the `synth` command's tracks, refined tracks).
+    Y,
+}
+
+/// A pose file made to drive a body of `joints` joints and `shape_count` shape coefficients:
+/// read, fitted to the body ([`PoseSequence::for_model`]) and turned to the bodies' y-up world.
+pub fn load_driving_sequence(
+    path: &Path,
+    joints: usize,
+    shape_count: usize,
+    up: UpAxis,
+) -> Result<PoseSequence, DatasetError> {
+    let fitted = load_pose_sequence(path)?.for_model(joints, shape_count, path)?;
+    Ok(match up {
+        UpAxis::Z => fitted.rotated_world(Z_UP_TO_Y_UP),
+        UpAxis::Y => fitted,
+    })
+}
+
 /// AMASS's world (z up) to the bodies' world (y up): `(x, y, z) → (x, z, −y)`, a −90° turn
 /// about x.
 pub const Z_UP_TO_Y_UP: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]];

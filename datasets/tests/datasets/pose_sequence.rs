@@ -215,3 +215,31 @@ fn a_z_up_sequence_turns_into_the_bodies_y_up_world() {
     assert_eq!(turned.pose(1)[3], 0.4);
     assert_eq!(turned.frames(), 2);
 }
+
+/// A driving file is fitted to the body and, for z-up files, turned to the bodies' y-up world.
+#[test]
+fn driving_sequences_are_fitted_and_turned_upright() {
+    use splatzoo_datasets::pose_sequence::{UpAxis, Z_UP_TO_Y_UP, load_driving_sequence};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("walk.npz");
+    let frames = 3;
+    let seq = PoseSequence {
+        joints: 52,
+        poses: ramp(frames * 156, 0.01).iter().map(|&v| v as f64).collect(),
+        translations: ramp(frames * 3, 0.3).iter().map(|&v| v as f64).collect(),
+        betas: vec![0.5; frames * 16],
+        shape_count: 16,
+        fps: Some(30.0),
+    };
+    write_pose_sequence(&path, &seq).unwrap();
+    let upright = load_driving_sequence(&path, 24, 10, UpAxis::Y).unwrap();
+    assert_eq!(upright, seq.for_model(24, 10, &path).unwrap());
+    assert_eq!((upright.joints, upright.shape_count), (24, 10));
+    let turned = load_driving_sequence(&path, 24, 10, UpAxis::Z).unwrap();
+    assert_eq!(turned, upright.rotated_world(Z_UP_TO_Y_UP));
+    // (x, y, z) → (x, z, −y).
+    let (t, u) = (turned.translation(1), upright.translation(1));
+    assert!(
+        (t[0] - u[0]).abs() < 1e-12 && (t[1] - u[2]).abs() < 1e-12 && (t[2] + u[1]).abs() < 1e-12
+    );
+}

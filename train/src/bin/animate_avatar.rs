@@ -11,7 +11,7 @@
 //! ```
 
 use clap::Parser;
-use splatzoo_datasets::pose_sequence::{PoseSequence, Z_UP_TO_Y_UP, load_pose_sequence};
+use splatzoo_datasets::pose_sequence::{PoseSequence, UpAxis, load_driving_sequence};
 use splatzoo_datasets::synth::motion::{Motion, Start, generate};
 use splatzoo_datasets::synth::scene::standing_height;
 use splatzoo_models::body::builtin_body;
@@ -30,15 +30,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-/// Which world axis is up in a `--poses` file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum Up {
-    /// AMASS and most mocap releases.
-    Z,
-    /// Already in the body's frame (the `synth` command's tracks, `refined_poses.npz`).
-    Y,
-}
-
 #[derive(Parser, Debug)]
 #[command(about = "Drive a trained train-avatar avatar with a pose sequence")]
 struct Args {
@@ -48,8 +39,8 @@ struct Args {
     #[arg(long)]
     poses: Option<PathBuf>,
     /// The up axis of the `--poses` file's world.
-    #[arg(long, value_enum, default_value_t = Up::Z)]
-    up: Up,
+    #[arg(long, value_enum, default_value_t = UpAxis::Z)]
+    up: UpAxis,
     /// Frames of the built-in walk (ignored with `--poses`).
     #[arg(long, default_value_t = 24)]
     frames: usize,
@@ -76,14 +67,7 @@ fn run(args: Args) -> Result<(), TrainError> {
     let device = args.backend.device();
     let body = &builtin_body().model;
     let sequence: PoseSequence = match &args.poses {
-        Some(path) => {
-            let raw = load_pose_sequence(path)?;
-            let fitted = raw.for_model(body.joint_count(), body.shape_count(), path)?;
-            match args.up {
-                Up::Z => fitted.rotated_world(Z_UP_TO_Y_UP),
-                Up::Y => fitted,
-            }
-        }
+        Some(path) => load_driving_sequence(path, body.joint_count(), body.shape_count(), args.up)?,
         None => generate(
             &[Motion::Walk {
                 seconds: args.frames as f64 / 24.0,

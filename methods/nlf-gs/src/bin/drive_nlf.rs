@@ -12,7 +12,7 @@
 
 use burn::tensor::{Tensor, TensorData};
 use clap::Parser;
-use splatzoo_datasets::pose_sequence::{PoseSequence, Z_UP_TO_Y_UP, load_pose_sequence};
+use splatzoo_datasets::pose_sequence::{PoseSequence, UpAxis, load_driving_sequence};
 use splatzoo_datasets::synth::motion::{Motion, Start, generate};
 use splatzoo_models::anchor::MeshAnchors;
 use splatzoo_models::body::builtin_body;
@@ -31,15 +31,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-/// Which world axis is up in a `--poses` file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum Up {
-    /// AMASS and most mocap releases.
-    Z,
-    /// Already in the bodies' frame (the `synth` command's tracks).
-    Y,
-}
-
 #[derive(Parser, Debug)]
 #[command(about = "Generate an NLF-GS avatar and drive it with a pose sequence")]
 struct Args {
@@ -52,8 +43,8 @@ struct Args {
     #[arg(long)]
     poses: Option<PathBuf>,
     /// The up axis of the `--poses` file's world.
-    #[arg(long, value_enum, default_value_t = Up::Z)]
-    up: Up,
+    #[arg(long, value_enum, default_value_t = UpAxis::Z)]
+    up: UpAxis,
     /// Frames of the built-in walk (ignored with `--poses`).
     #[arg(long, default_value_t = 24)]
     frames: usize,
@@ -87,14 +78,7 @@ fn run(args: Args) -> Result<(), TrainError> {
     let avatar = model.generate(&inputs, network.fusion, network.occlusion_tolerance);
     let generated = start.elapsed().as_secs_f64();
     let sequence: PoseSequence = match &args.poses {
-        Some(path) => {
-            let raw = load_pose_sequence(path)?;
-            let fitted = raw.for_model(body.joint_count(), body.shape_count(), path)?;
-            match args.up {
-                Up::Z => fitted.rotated_world(Z_UP_TO_Y_UP),
-                Up::Y => fitted,
-            }
-        }
+        Some(path) => load_driving_sequence(path, body.joint_count(), body.shape_count(), args.up)?,
         None => generate(
             &[Motion::Walk {
                 seconds: args.frames as f64 / 24.0,
