@@ -121,15 +121,16 @@ impl AvatarDataConfig {
         for (t, &is_trained) in trained.iter().enumerate() {
             if is_trained {
                 let wants_novel =
-                    trained_seen % self.novel_view_every == 0 && scene.tracks.len() > 1;
+                    trained_seen % self.novel_view_every == 0 && scene.tracks.len() == 2;
                 trained_seen += 1;
-                let tracks: Vec<usize> = if wants_novel { vec![0, 1] } else { vec![0] };
-                let mut views = tracks
-                    .iter()
-                    .map(|&k| scene.render_view(t, k, true))
-                    .collect::<Vec<_>>();
+                // Both cameras share one shadow map when the frame is also a novel view.
+                let mut views = if wants_novel {
+                    scene.render_frame(t)
+                } else {
+                    vec![scene.render_view(t, 0, true)]
+                };
                 if wants_novel {
-                    let fixed = views.pop().expect("two views");
+                    let fixed = views.pop().expect("the fixed camera, rendered last");
                     novel_view.push(view(
                         &fixed,
                         format!("{}_{t:04}", scene.tracks[1].name),
