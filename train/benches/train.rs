@@ -6,29 +6,21 @@
 //! cargo bench --workspace --bench train -- flex 200     # one backend, 200 steps
 //! ```
 //!
-//! Each backend runs in its own child process so that its peak resident memory (`VmHWM`, which
-//! on lavapipe includes the "GPU" buffers) is its own. Prints a table.
+//! Each backend runs in its own child process ([`common::run`]). Prints a table.
 
+mod common;
+
+use common::peak_rss_mib;
 use splatzoo_train::backend::Backend;
 use splatzoo_train::densify::Strategy;
 use splatzoo_train::harness::Method;
 use splatzoo_train::static_scene::{StaticConfig, StaticTrainer};
-use std::process::Command;
 use std::time::Instant;
 
 const WARM_UP: usize = 10;
 
-fn peak_rss_mib() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
-
-/// In the child: trains and prints `steps/s peak_MiB gaussians`.
-fn child(backend: Backend, steps: usize) {
+/// In the child: trains; returns steps/s, peak MiB and the Gaussian count.
+fn child(backend: Backend, steps: usize) -> Vec<f64> {
     let mut config = StaticConfig {
         backend,
         iterations: WARM_UP + steps,
@@ -46,57 +38,30 @@ fn child(backend: Backend, steps: usize) {
         trainer.step().expect("step");
     }
     let rate = steps as f64 / start.elapsed().as_secs_f64();
-    println!("{rate} {} {}", peak_rss_mib(), trainer.graph.gaussians());
+    vec![rate, peak_rss_mib(), trainer.graph.gaussians() as f64]
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| a != "--bench")
-        .collect();
-    if args.first().map(String::as_str) == Some("--child") {
-        let backend = Backend::ALL
-            .into_iter()
-            .find(|b| b.name() == args[1])
-            .expect("known backend");
-        child(backend, args[2].parse().expect("steps"));
-        return;
-    }
-    let steps: usize = args.iter().find_map(|a| a.parse().ok()).unwrap_or(60);
-    let chosen: Vec<Backend> = Backend::ALL
-        .into_iter()
-        .filter(|b| {
-            args.iter().all(|a| a.parse::<usize>().is_ok()) || args.iter().any(|a| a == b.name())
-        })
-        .collect();
-    println!("train-3dgs default scene, {steps} timed steps after {WARM_UP} warm-up, SH degree 3");
-    println!("| backend | steps/s | peak memory (RSS) | Gaussians |");
-    println!("|---|---|---|---|");
-    let exe = std::env::current_exe().expect("own path");
-    for backend in chosen {
-        let out = Command::new(&exe)
-            .args(["--child", backend.name(), &steps.to_string()])
-            .output()
-            .expect("child runs");
-        let text = String::from_utf8_lossy(&out.stdout);
-        let fields: Vec<&str> = text.split_whitespace().collect();
-        if !out.status.success() || fields.len() != 3 {
+    common::run(
+        60,
+        child,
+        |steps| {
             println!(
-                "| {} | failed: {} | | |",
-                backend.name(),
-                String::from_utf8_lossy(&out.stderr)
-                    .lines()
-                    .last()
-                    .unwrap_or("")
+                "train-3dgs default scene, {steps} timed steps after {WARM_UP} warm-up, SH degree 3"
             );
-            continue;
-        }
-        let rate: f64 = fields[0].parse().unwrap_or(f64::NAN);
-        let mib: f64 = fields[1].parse().unwrap_or(f64::NAN);
-        println!(
-            "| {} | {rate:.1} | {mib:.0} MiB | {} |",
-            backend.name(),
-            fields[2]
-        );
-    }
+            println!("| backend | steps/s | peak memory (RSS) | Gaussians |");
+            println!("|---|---|---|---|");
+        },
+        |backend, figures| match figures {
+            Ok(f) if f.len() == 3 => println!(
+                "| {} | {:.1} | {:.0} MiB | {} |",
+                backend.name(),
+                f[0],
+                f[1],
+                f[2]
+            ),
+            Ok(f) => println!("| {} | unexpected output {f:?} | | |", backend.name()),
+            Err(e) => println!("| {} | failed: {e} | | |", backend.name()),
+        },
+    );
 }
