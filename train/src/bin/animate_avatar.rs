@@ -66,6 +66,16 @@ fn run(args: Args) -> Result<(), TrainError> {
     let config = checkpoint_config::<AvatarTrainer>(&checkpoint)?;
     let device = args.backend.device();
     let body = &builtin_body().model;
+    // The trained shape, for the built-in walk's standing height.
+    let betas: burn::tensor::Tensor<2> = checkpoint.tensor(
+        &format!("{HUMAN}.betas"),
+        [Some(1), Some(body.shape_count())],
+        &device,
+    )?;
+    let avatar_shape: Vec<f64> = splatzoo_train::host_f32(&betas)
+        .into_iter()
+        .map(f64::from)
+        .collect();
     let sequence: PoseSequence = match &args.poses {
         Some(path) => load_driving_sequence(path, body.joint_count(), body.shape_count(), args.up)?,
         None => generate(
@@ -77,7 +87,7 @@ fn run(args: Args) -> Result<(), TrainError> {
             Start {
                 position: [0.0, 0.0],
                 heading: 0.0,
-                standing_height: standing_height(&vec![0.0; body.shape_count()], &device),
+                standing_height: standing_height(&avatar_shape, &device),
             },
             24.0,
         ),

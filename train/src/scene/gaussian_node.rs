@@ -21,8 +21,9 @@ pub struct GaussianNode {
     pub optimizer: GaussianOptimizer,
     density: Box<dyn DensityStrategy>,
     rng: Rng,
-    /// Where each row came from in the last step's density edit (empty when no row moved).
-    old_from_new: Vec<usize>,
+    /// Where each row came from in the last step's density edit (`None` when there was none;
+    /// empty when it removed every row).
+    old_from_new: Option<Vec<usize>>,
 }
 
 impl GaussianNode {
@@ -44,7 +45,7 @@ impl GaussianNode {
             leaves: None,
             set,
             rng: Rng(seed),
-            old_from_new: Vec::new(),
+            old_from_new: None,
         }
     }
 
@@ -52,7 +53,7 @@ impl GaussianNode {
     /// row it was copied from; `None` when no row moved. Nodes that keep per-row data beside
     /// the set (a skinned node's weights and anchors) follow it.
     pub fn take_lineage(&mut self) -> Option<Vec<usize>> {
-        (!self.old_from_new.is_empty()).then(|| std::mem::take(&mut self.old_from_new))
+        self.old_from_new.take()
     }
 
     /// This step's autodiff leaves (between `begin_step` and `end_step`).
@@ -96,15 +97,20 @@ impl SceneNode for GaussianNode {
         }
         self.optimizer
             .step(&mut self.set, &leaves, end.grads, end.progress);
-        self.old_from_new.clear();
-        self.density.after_step(RowEdit {
+        let rows = self.set.len();
+        let mut old_from_new = Vec::new();
+        let report = self.density.after_step(RowEdit {
             set: &mut self.set,
             optimizer: &mut self.optimizer,
             rng: &mut self.rng,
             step: end.step + 1,
             progress: end.progress,
-            old_from_new: &mut self.old_from_new,
-        })
+            old_from_new: &mut old_from_new,
+        });
+        // A decision that moved no row leaves the lineage untouched (and so empty).
+        let moved = !old_from_new.is_empty() || self.set.len() != rows;
+        self.old_from_new = moved.then_some(old_from_new);
+        report
     }
 
     fn save(&self, checkpoint: &mut Checkpoint, prefix: &str) {
@@ -137,7 +143,7 @@ impl SceneNode for GaussianNode {
         )?;
         self.rng = Rng(checkpoint.meta_parsed(&format!("{prefix}.rng"))?);
         self.leaves = None;
-        self.old_from_new.clear();
+        self.old_from_new = None;
         Ok(())
     }
 }

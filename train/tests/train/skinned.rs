@@ -576,3 +576,62 @@ fn a_track_that_does_not_fit_the_body_is_named() {
         "{message}"
     );
 }
+
+/// An avatar loaded into a node built on another motion takes its skeleton with its shape: at
+/// the canonical pose it still reproduces its canonical Gaussians.
+#[test]
+fn a_loaded_avatar_keeps_the_skeleton_of_its_shape() {
+    use splatzoo_train::checkpoint::Checkpoint;
+    let device = Device::flex();
+    let model = &builtin_body().model;
+    let s = model.shape_count();
+    let canonical_pose = CanonicalPose::DaPose;
+    let prior = PoseSequence {
+        joints: model.joint_count(),
+        poses: canonical_pose.axis_angles(model.joint_count()),
+        translations: vec![0.0; 3],
+        betas: vec![0.0; s],
+        shape_count: s,
+        fps: None,
+    };
+    let config = SkinnedConfig {
+        canonical_pose,
+        per_face: 1,
+        refine_shape: false,
+        ..SkinnedConfig::default()
+    };
+    let build = || {
+        SkinnedGaussianNode::new(
+            "person",
+            model,
+            &prior,
+            vec![true],
+            &config,
+            LearningRates::default(),
+            &DensifyConfig::default(),
+            1.0,
+            1,
+            &device,
+        )
+        .unwrap()
+    };
+    let mut checkpoint = Checkpoint::default();
+    build().save(&mut checkpoint, "person");
+    // A trained shape far from the new prior's zero shape.
+    let betas = checkpoint.tensors.get_mut("person.betas").unwrap();
+    betas
+        .1
+        .iter_mut()
+        .enumerate()
+        .for_each(|(k, b)| *b = if k % 2 == 0 { 1.5 } else { -1.5 });
+    let mut node = build();
+    node.load_avatar(&checkpoint, "person", &device).unwrap();
+    assert_eq!(host_f32(node.betas())[0], 1.5);
+    let canonical = node.canonical_set().splats();
+    let posed = node.posed(canonical.clone(), 0).splats;
+    let diff = scalar((posed.means - canonical.means).abs().max());
+    assert!(
+        diff < 1e-4,
+        "the canonical pose moves Gaussians by {diff} m"
+    );
+}

@@ -78,6 +78,24 @@ fn lift_body(body: &BodyTensors) -> BodyTensors {
     }
 }
 
+/// Rest → canonical-pose transforms of the joints of `body` at shape `betas` `[1, S]`.
+fn canonical_transforms(
+    body: &BodyTensors,
+    betas: Tensor<2>,
+    canonical_pose: Tensor<2>,
+) -> JointTransforms {
+    let j = body.joint_count();
+    let device = betas.device();
+    let rest = pose(
+        body,
+        &PoseInput::from_axis_angle(betas, canonical_pose, Tensor::zeros([1, 3], &device)),
+    );
+    JointTransforms {
+        rotations: rest.joint_rotations.reshape([j, 3, 3]),
+        translations: rest.skinning_translations.reshape([j, 3]),
+    }
+}
+
 /// The mean shape of a track, cut or zero-padded to `count` coefficients.
 fn mean_betas(track: &PoseSequence, count: usize) -> Vec<f32> {
     let frames = track.frames().max(1);
@@ -214,6 +232,11 @@ impl SkinnedGaussianNode {
         &self.canonical.set
     }
 
+    /// `[1, S]` the avatar's shape coefficients.
+    pub fn betas(&self) -> &Tensor<2> {
+        &self.betas
+    }
+
     /// This step's autodiff leaves of the canonical Gaussians (inside a step).
     pub fn canonical_leaves(&self) -> Option<&GaussianSet> {
         self.canonical.leaves()
@@ -223,6 +246,7 @@ impl SkinnedGaussianNode {
     pub fn joint_positions(&self, frame: usize) -> Tensor<2> {
         let j = self.model.joint_count();
         let frame_pose = self.poses.frame(frame, false);
+        // Plain values, outside any step's graph.
         let posed = pose(
             &self.body,
             &PoseInput {
@@ -300,19 +324,7 @@ impl SkinnedGaussianNode {
         };
         let canonical_joints = if self.config.refine_shape {
             // The skeleton follows the shape: canonical transforms at the current shape.
-            let device = betas.device();
-            let rest = pose(
-                &body,
-                &PoseInput::from_axis_angle(
-                    betas,
-                    self.lift(self.canonical_pose.clone()),
-                    self.lift(Tensor::zeros([1, 3], &device)),
-                ),
-            );
-            JointTransforms {
-                rotations: rest.joint_rotations.reshape([j, 3, 3]),
-                translations: rest.skinning_translations.reshape([j, 3]),
-            }
+            canonical_transforms(&body, betas, self.lift(self.canonical_pose.clone()))
         } else {
             JointTransforms {
                 rotations: self.lift(self.canonical_joints.rotations.clone()),
@@ -384,6 +396,9 @@ impl SkinnedGaussianNode {
         self.betas = checkpoint.tensor(&format!("{prefix}.betas"), [Some(1), Some(s)], device)?;
         self.betas_adam = AdamState::load(checkpoint, &format!("{prefix}.betas"), &self.betas)?;
         self.betas_leaf = None;
+        // The skeleton of the loaded shape (a node built on another prior had another).
+        self.canonical_joints =
+            canonical_transforms(&self.body, self.betas.clone(), self.canonical_pose.clone());
         if let Some(c) = &mut self.correction {
             let j = self.model.joint_count();
             c.logits = checkpoint.tensor(
@@ -418,6 +433,17 @@ impl SkinnedGaussianNode {
                 Tensor::<1, Int>::from_data(TensorData::new(index, [old_from_new.len()]), &device);
             c.logits = c.logits.clone().select(0, index.clone());
             c.adam.select(index);
+            // Copies start with fresh moments, as the Gaussian optimiser's new rows do: the
+            // first row taken from an old row keeps its moments, later ones restart.
+            let mut seen = vec![false; old_from_new.iter().max().map_or(0, |&m| m + 1)];
+            let keep: Vec<f32> = old_from_new
+                .iter()
+                .map(|&o| f32::from(!std::mem::replace(&mut seen[o], true)))
+                .collect();
+            c.adam.scale_rows(Tensor::from_data(
+                TensorData::new(keep, [old_from_new.len()]),
+                &device,
+            ));
         }
     }
 }

@@ -164,9 +164,9 @@ impl PoseTable {
             return None;
         }
         let offsets = match &self.leaves {
-            Some(l) => l.offsets.clone(),
-            None if autodiff => self.offsets.clone().autodiff(),
-            None => self.offsets.clone(),
+            Some(l) if autodiff => l.offsets.clone(),
+            _ if autodiff => self.offsets.clone().autodiff(),
+            _ => self.offsets.clone(),
         };
         Some(rotation_6d_to_matrix(offsets))
     }
@@ -186,7 +186,12 @@ impl PoseTable {
             .reshape([j, 3, 3]);
         let prior_trans = lift2(self.prior_translations.clone()).slice([frame..frame + 1, 0..3]);
         let (delta_rot, delta_trans) = if self.is_trained(frame) {
-            let (d, t) = self.current();
+            // Outside the graph (`autodiff` false) the plain values, even within a step.
+            let (d, t) = if autodiff {
+                self.current()
+            } else {
+                (self.deltas.clone(), self.translation_deltas.clone())
+            };
             let d = lift3(d)
                 .slice([frame..frame + 1, 0..j, 0..6])
                 .reshape([j, 6]);
