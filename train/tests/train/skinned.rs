@@ -169,6 +169,29 @@ fn tiny_body() -> BodyModel {
     }
 }
 
+/// A node of `model` over `prior` with default learning rates and density control.
+fn node_of(
+    model: &BodyModel,
+    prior: &PoseSequence,
+    trained: Vec<bool>,
+    config: &SkinnedConfig,
+) -> Result<SkinnedGaussianNode, String> {
+    let device = Device::flex();
+    SkinnedGaussianNode::new(
+        "person",
+        model,
+        prior,
+        trained,
+        config,
+        LearningRates::default(),
+        &DensifyConfig::default(),
+        1.0,
+        1,
+        &device,
+    )
+    .map_err(|e| e.to_string())
+}
+
 fn track(joints: usize, frames: usize, rng: &mut Rng, spread: f64) -> PoseSequence {
     PoseSequence {
         joints,
@@ -360,7 +383,6 @@ fn gradients_reach_the_pose_table_the_gaussians_and_the_non_rigid_hook() {
 
 #[test]
 fn the_rest_pose_reproduces_the_canonical_set() {
-    let device = Device::flex();
     let model = &builtin_body().model;
     for canonical_pose in [CanonicalPose::DaPose, CanonicalPose::APose] {
         let pose = canonical_pose.axis_angles(model.joint_count());
@@ -377,19 +399,7 @@ fn the_rest_pose_reproduces_the_canonical_set() {
             per_face: 1,
             ..SkinnedConfig::default()
         };
-        let node = SkinnedGaussianNode::new(
-            "person",
-            model,
-            &prior,
-            vec![true, false],
-            &config,
-            LearningRates::default(),
-            &DensifyConfig::default(),
-            1.0,
-            1,
-            &device,
-        )
-        .unwrap();
+        let node = node_of(model, &prior, vec![true, false], &config).unwrap();
         let canonical = node.canonical_set().splats();
         for frame in [0, 1] {
             let posed = node.posed(canonical.clone(), frame).splats;
@@ -507,7 +517,6 @@ fn held_out_frames_interpolate_their_trained_neighbours() {
 
 #[test]
 fn joints_regress_from_the_gaussians_as_from_the_mesh() {
-    let device = Device::flex();
     let model = &builtin_body().model;
     let prior = PoseSequence {
         joints: 24,
@@ -524,19 +533,7 @@ fn joints_regress_from_the_gaussians_as_from_the_mesh() {
             canonical_pose: CanonicalPose::TPose,
             ..SkinnedConfig::default()
         };
-        let node = SkinnedGaussianNode::new(
-            "person",
-            model,
-            &prior,
-            vec![true],
-            &config,
-            LearningRates::default(),
-            &DensifyConfig::default(),
-            1.0,
-            1,
-            &device,
-        )
-        .unwrap();
+        let node = node_of(model, &prior, vec![true], &config).unwrap();
         let from_gaussians = node.regress_joints(node.canonical_set().means.clone());
         let from_mesh = node.joint_positions(0);
         let err = scalar((from_gaussians - from_mesh).abs().max());
@@ -546,24 +543,11 @@ fn joints_regress_from_the_gaussians_as_from_the_mesh() {
 
 #[test]
 fn a_track_that_does_not_fit_the_body_is_named() {
-    let device = Device::flex();
     let mut rng = Rng(1);
     let build = |prior: &PoseSequence, trained: Vec<bool>| {
-        SkinnedGaussianNode::new(
-            "person",
-            &tiny_body(),
-            prior,
-            trained,
-            &SkinnedConfig::default(),
-            LearningRates::default(),
-            &DensifyConfig::default(),
-            1.0,
-            1,
-            &device,
-        )
-        .err()
-        .map(|e| e.to_string())
-        .unwrap_or_default()
+        node_of(&tiny_body(), prior, trained, &SkinnedConfig::default())
+            .err()
+            .unwrap_or_default()
     };
     let message = build(&track(24, 2, &mut rng, 0.1), vec![true; 2]);
     assert!(
@@ -600,21 +584,7 @@ fn a_loaded_avatar_keeps_the_skeleton_of_its_shape() {
         refine_shape: false,
         ..SkinnedConfig::default()
     };
-    let build = || {
-        SkinnedGaussianNode::new(
-            "person",
-            model,
-            &prior,
-            vec![true],
-            &config,
-            LearningRates::default(),
-            &DensifyConfig::default(),
-            1.0,
-            1,
-            &device,
-        )
-        .unwrap()
-    };
+    let build = || node_of(model, &prior, vec![true], &config).unwrap();
     let mut checkpoint = Checkpoint::default();
     build().save(&mut checkpoint, "person");
     // A trained shape far from the new prior's zero shape.
