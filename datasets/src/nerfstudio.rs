@@ -2,7 +2,9 @@
 //! OpenGL convention (x right, y up, looking down −z), pinhole intrinsics shared at the top
 //! level or given per frame (`fl_x`, `fl_y`, `cx`, `cy`, `w`, `h`), optional `mask_path`
 //! (0 = ignore the pixel) and `depth_file_path` (16-bit PNG in millimetres). The Blender
-//! variant's `camera_angle_x` is read too. nerfstudio, gsplat's and Brush's loaders read this
+//! variant's `camera_angle_x` is read too, and the top-level `ply_file_path` (a PLY of SfM
+//! points, relative to the `transforms.json`, which `ns-process-data` writes as
+//! `sparse_pc.ply`; read by [`crate::point_ply`]). nerfstudio, gsplat's and Brush's loaders read this
 //! layout, so a scene written here trains in them unchanged.
 
 use crate::DatasetError;
@@ -59,6 +61,8 @@ struct FrameJson {
 struct TransformsJson {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     camera_model: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    ply_file_path: Option<String>,
     #[serde(flatten)]
     intrinsics: Intrinsics,
     frames: Vec<FrameJson>,
@@ -106,9 +110,27 @@ fn world_to_camera_opencv(m: &[[f64; 4]; 4]) -> [[f32; 4]; 3] {
     w
 }
 
+/// A whole `transforms.json`: its frames and the top-level `ply_file_path`, where given.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Transforms {
+    pub frames: Vec<NerfstudioFrame>,
+    /// Relative to the `transforms.json`.
+    pub ply_file_path: Option<String>,
+}
+
 /// Writes `frames` as `path` (a `transforms.json`), intrinsics at the top level when every
 /// camera shares them, per frame otherwise.
 pub fn write_transforms(path: &Path, frames: &[NerfstudioFrame]) -> Result<(), DatasetError> {
+    write_transforms_with_points(path, frames, None)
+}
+
+/// [`write_transforms`], naming a PLY of sparse points (relative to `path`'s folder) as the
+/// top-level `ply_file_path` where given.
+pub fn write_transforms_with_points(
+    path: &Path,
+    frames: &[NerfstudioFrame],
+    ply_file_path: Option<&str>,
+) -> Result<(), DatasetError> {
     let shared = frames
         .first()
         .map(|f| intrinsics_of(&f.camera))
@@ -121,6 +143,7 @@ pub fn write_transforms(path: &Path, frames: &[NerfstudioFrame]) -> Result<(), D
         });
     let json = TransformsJson {
         camera_model: Some("OPENCV".into()),
+        ply_file_path: ply_file_path.map(str::to_owned),
         frames: frames
             .iter()
             .map(|f| FrameJson {
@@ -144,11 +167,18 @@ pub fn write_transforms(path: &Path, frames: &[NerfstudioFrame]) -> Result<(), D
 
 /// Reads a `transforms.json` into cameras (near/far left at the rasterizer's defaults).
 pub fn read_transforms(path: &Path) -> Result<Vec<NerfstudioFrame>, DatasetError> {
+    read_transforms_with_points(path).map(|t| t.frames)
+}
+
+/// Reads a `transforms.json` into cameras and its `ply_file_path` (the file itself is read by
+/// [`crate::point_ply::read_points`]).
+pub fn read_transforms_with_points(path: &Path) -> Result<Transforms, DatasetError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| DatasetError::file(path, format!("cannot read ({e})")))?;
     let json: TransformsJson = serde_json::from_str(&text)
         .map_err(|e| DatasetError::file(path, format!("not a nerfstudio transforms.json: {e}")))?;
-    json.frames
+    let frames = json
+        .frames
         .iter()
         .enumerate()
         .map(|(k, f)| {
@@ -210,5 +240,9 @@ pub fn read_transforms(path: &Path) -> Result<Vec<NerfstudioFrame>, DatasetError
                 },
             })
         })
-        .collect()
+        .collect::<Result<Vec<_>, DatasetError>>()?;
+    Ok(Transforms {
+        frames,
+        ply_file_path: json.ply_file_path,
+    })
 }

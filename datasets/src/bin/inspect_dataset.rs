@@ -8,16 +8,17 @@
 //! ```sh
 //! cargo run --release --bin inspect-dataset -- path/to/CoreView_377
 //! cargo run --release --bin inspect-dataset -- path/to/neuman/bike --limit 50
+//! cargo run --release --bin inspect-dataset -- path/to/mipnerf360/garden --downscale 4
 //! ```
 
 use clap::Parser;
-use splatzoo_datasets::formats::{Format, check::check, load};
+use splatzoo_datasets::formats::{Format, LoadOptions, check::check, load_with};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
 #[command(
-    about = "Inspect a dataset folder (NeuMan, ZJU-MoCap, PeopleSnapshot, GHG THuman2.0, drivestudio Waymo, nerfstudio)"
+    about = "Inspect a dataset folder (NeuMan, COLMAP, ZJU-MoCap, PeopleSnapshot, GHG THuman2.0, drivestudio Waymo, nerfstudio)"
 )]
 struct Args {
     root: PathBuf,
@@ -27,11 +28,17 @@ struct Args {
     /// Decode and check at most this many views.
     #[arg(long)]
     limit: Option<usize>,
+    /// Cameras at 1/N resolution (COLMAP scenes: `images_N/` where present).
+    #[arg(long, default_value_t = 1)]
+    downscale: u32,
 }
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let dataset = match load(&args.root, args.format) {
+    let options = LoadOptions {
+        downscale: args.downscale,
+    };
+    let dataset = match load_with(&args.root, args.format, &options) {
         Ok(d) => d,
         Err(e) => {
             println!("first problem: {e}");
@@ -58,6 +65,12 @@ fn main() -> ExitCode {
     }
     if !dataset.points.is_empty() {
         println!("sparse points: {}", dataset.points.len());
+    }
+    if dataset.image_downscale > 1 {
+        println!(
+            "image files at full resolution: shrink by {} to the cameras' size",
+            dataset.image_downscale
+        );
     }
     let report = check(&dataset, args.limit);
     let sizes: Vec<String> = report

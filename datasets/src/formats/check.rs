@@ -1,5 +1,6 @@
 //! Decodes every image and mask of a [`Dataset`] and checks it against its camera: readable,
-//! the camera's size, and (for masks) marking some person pixel. Images are decoded in parallel
+//! the camera's size (after the dataset's [`Dataset::image_downscale`], where the files are
+//! full resolution), and (for masks) marking some person pixel. Images are decoded in parallel
 //! in batches of a few per thread, each dropped after its check, so memory stays bounded by the
 //! batch whatever the dataset's size.
 //!
@@ -10,6 +11,7 @@
 //! one box mask per image, all zero wherever no pedestrian or cyclist moves (its
 //! `waymo_preprocess.py` writes it for every image).
 
+use super::colmap_scene::downscaled_size;
 use super::{Dataset, Format, ViewRecord};
 use rayon::prelude::*;
 
@@ -43,7 +45,23 @@ struct ViewCheck {
     warnings: Vec<(String, String)>,
 }
 
-fn check_view(view: &ViewRecord, empty_mask_is_valid: bool) -> ViewCheck {
+/// Whether a file of `size` matches a camera of `expected` size once shrunk by `downscale`,
+/// and the size as said in a problem: `w×h`, or `w×h (w'×h' at 1/N)`.
+fn file_size(size: (u32, u32), downscale: u32, expected: (u32, u32)) -> (bool, String) {
+    if downscale <= 1 {
+        return (size == expected, format!("{}×{}", size.0, size.1));
+    }
+    let seen = downscaled_size(size.0, size.1, downscale);
+    (
+        seen == expected,
+        format!(
+            "{}×{} ({}×{} at 1/{downscale})",
+            size.0, size.1, seen.0, seen.1
+        ),
+    )
+}
+
+fn check_view(view: &ViewRecord, empty_mask_is_valid: bool, downscale: u32) -> ViewCheck {
     let mut problems = Vec::new();
     let mut warnings = Vec::new();
     let expected = (view.camera.width, view.camera.height);
@@ -51,13 +69,11 @@ fn check_view(view: &ViewRecord, empty_mask_is_valid: bool) -> ViewCheck {
     let size = match image::open(&view.image) {
         Ok(img) => {
             let size = (img.width(), img.height());
-            if size != expected {
+            let (matches, seen) = file_size(size, downscale, expected);
+            if !matches {
                 problems.push((
                     name,
-                    format!(
-                        "is {}×{}, its camera says {}×{}",
-                        size.0, size.1, expected.0, expected.1
-                    ),
+                    format!("is {seen}, its camera says {}×{}", expected.0, expected.1),
                 ));
             }
             Some(size)
@@ -78,10 +94,11 @@ fn check_view(view: &ViewRecord, empty_mask_is_valid: bool) -> ViewCheck {
     let name = mask.display().to_string();
     match view.read_mask().expect("the view has a mask") {
         Ok((w, h, person)) => {
-            if (w, h) != expected {
+            let (matches, seen) = file_size((w, h), downscale, expected);
+            if !matches {
                 problems.push((
                     name,
-                    format!("is {w}×{h}, its camera says {}×{}", expected.0, expected.1),
+                    format!("is {seen}, its camera says {}×{}", expected.0, expected.1),
                 ));
             } else if !person.iter().any(|&p| p) {
                 if empty_mask_is_valid {
@@ -118,7 +135,7 @@ pub fn check(dataset: &Dataset, limit: Option<usize>) -> CheckReport {
     for chunk in views.chunks(batch) {
         let results: Vec<_> = chunk
             .par_iter()
-            .map(|view| check_view(view, empty_mask_is_valid))
+            .map(|view| check_view(view, empty_mask_is_valid, dataset.image_downscale))
             .collect();
         for ViewCheck {
             size,

@@ -197,6 +197,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 mask: mask.is_file().then_some(mask),
                 mask_convention: MaskConvention::NonZeroIsPerson,
                 other_masks,
+                depth: None,
             });
         }
     }
@@ -220,6 +221,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         points: Vec::new(),
         boxes,
         warnings: Vec::new(),
+        image_downscale: 1,
     })
 }
 

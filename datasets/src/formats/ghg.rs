@@ -262,6 +262,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 mask: mask.is_file().then_some(mask),
                 mask_convention: MaskConvention::NonZeroIsPerson,
                 other_masks: Default::default(),
+                depth: None,
             });
         }
     }
@@ -286,5 +287,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         points: Vec::new(),
         boxes: Vec::new(),
         warnings,
+        image_downscale: 1,
     })
 }

@@ -4,17 +4,21 @@
 //! parameters per frame, with the frames where the person is valid), and [`Dataset`].
 //!
 //! Each format module writes down, beside the code, every conversion from its conventions to
-//! ours. So far: NeuMan ([`neuman`], over a COLMAP text model, [`colmap`]), ZJU-MoCap in its
-//! original and refined layouts ([`zju`]), PeopleSnapshot in InstantAvatar's npz form
-//! ([`people_snapshot`]), THuman2.0 renders of the GHG protocol ([`ghg`]), drivestudio's
-//! processed Waymo ([`drivestudio`]), nerfstudio folders, and the synthetic generator's own
-//! export ([`synthetic`]), so generated scenes arrive in the same types. [`detect`] recognises a
+//! ours. So far: NeuMan ([`neuman`], over a COLMAP text model, [`colmap`]), COLMAP scene
+//! folders as 3DGS reads them ([`colmap_scene`], text or binary models, [`colmap_binary`]),
+//! ZJU-MoCap in its original and refined layouts ([`zju`]), PeopleSnapshot in InstantAvatar's
+//! npz form ([`people_snapshot`]), THuman2.0 renders of the GHG protocol ([`ghg`]),
+//! drivestudio's processed Waymo ([`drivestudio`]), nerfstudio folders (with their
+//! `ply_file_path` points, [`crate::point_ply`]), and the synthetic generator's own export
+//! ([`synthetic`]), so generated scenes arrive in the same types. [`detect`] recognises a
 //! folder's format; [`check`] decodes every image and mask in parallel, in bounded batches, and
 //! tells problems (unreadable or inconsistent data) from warnings (valid data worth saying:
 //! empty dynamic masks, subjects without a fit, extra pose rows).
 
 pub mod check;
 pub mod colmap;
+pub mod colmap_binary;
+pub mod colmap_scene;
 pub mod drivestudio;
 pub mod ghg;
 pub mod neuman;
@@ -48,8 +52,27 @@ pub enum Format {
     /// The synthetic generator's export (`synth` command): nerfstudio cameras plus masks and
     /// pose tracks.
     Synthetic,
-    /// A nerfstudio `transforms.json` folder (cameras and images only).
+    /// A nerfstudio `transforms.json` folder (cameras and images, and the sparse points of its
+    /// `ply_file_path` where it names one).
     Nerfstudio,
+    /// A COLMAP scene folder as 3DGS, gsplat and Brush read it (`sparse/0/` or `sparse/` with a
+    /// binary or text model, `images/`, optionally `images_N/` for a downscale).
+    Colmap,
+}
+
+/// How [`load_with`] reads a folder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Cameras at `1/downscale` of the capture's resolution (1: as captured). Read by COLMAP
+    /// scenes only ([`colmap_scene`]: `images_N/` where present, else
+    /// [`Dataset::image_downscale`]); other formats refuse a factor above 1.
+    pub downscale: u32,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        Self { downscale: 1 }
+    }
 }
 
 /// OpenCV lens distortion (`k1 k2 p1 p2 k3`); zero for undistorted images.
@@ -88,6 +111,9 @@ pub struct ViewRecord {
     /// Further masks by name, non-zero = inside (drivestudio: `sky`, `vehicle`, `dynamic`;
     /// synthetic: `accessory`, `coarse`).
     pub other_masks: BTreeMap<String, PathBuf>,
+    /// A depth map, where the format gives one: a 16-bit PNG in millimetres (0 = none;
+    /// nerfstudio's `depth_file_path`) or a `.npy` of metres, `(H, W)` at the image's size.
+    pub depth: Option<PathBuf>,
 }
 
 /// `x_world = scale · R · x + t`: where a format's SMPL output lives in its world.
@@ -181,6 +207,12 @@ pub struct Dataset {
     /// rows than frames (PeopleSnapshot), a subject without a body fit (GHG). Not problems: the
     /// dataset loaded; [`check::check`] carries these into its report's warnings.
     pub warnings: Vec<(String, String)>,
+    /// How much each image (and mask) file must be shrunk to match its view's camera: 1 when
+    /// the files are at the cameras' size (always, but for a COLMAP scene loaded with a
+    /// downscale and no `images_N/` folder: then the cameras are already scaled and the files
+    /// are full resolution, `round(size / N)` → the camera's size,
+    /// [`colmap_scene::downscaled_size`]).
+    pub image_downscale: u32,
 }
 
 /// One object's box in one frame.
@@ -265,10 +297,13 @@ impl Dataset {
     }
 }
 
-/// Recognises a dataset folder's format by the files it holds.
+/// Recognises a dataset folder's format by the files it holds (NeuMan before COLMAP: its
+/// scenes hold a COLMAP text model too; a COLMAP scene before a `transforms.json` beside it).
 pub fn detect(root: &Path) -> Option<Format> {
     if root.join("sparse/images.txt").is_file() && root.join("alignments.npy").is_file() {
         Some(Format::Neuman)
+    } else if colmap_scene::is_colmap_scene(root) {
+        Some(Format::Colmap)
     } else if root.join("annots.npy").is_file() {
         Some(Format::Zju)
     } else if root.join("cameras.npz").is_file() && root.join("poses.npz").is_file() {
@@ -286,18 +321,40 @@ pub fn detect(root: &Path) -> Option<Format> {
     }
 }
 
-/// Loads `root` as `format` (detected when `None`).
+/// Loads `root` as `format` (detected when `None`), at the capture's resolution.
 pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError> {
+    load_with(root, format, &LoadOptions::default())
+}
+
+/// Loads `root` as `format` (detected when `None`) with `options`.
+pub fn load_with(
+    root: &Path,
+    format: Option<Format>,
+    options: &LoadOptions,
+) -> Result<Dataset, DatasetError> {
     let format = match format.or_else(|| detect(root)) {
         Some(f) => f,
         None => {
             return Err(DatasetError::file(
                 root,
                 "format not recognised (NeuMan: sparse/images.txt + alignments.npy; \
-                 ZJU-MoCap: annots.npy; PeopleSnapshot: cameras.npz + poses.npz; GHG: img/ + parm/; drivestudio: ego_pose/ + extrinsics/; nerfstudio: transforms.json); name it with --format",
+                 COLMAP: sparse/0/ or sparse/ with cameras.{bin,txt}, + images/; \
+                 ZJU-MoCap: annots.npy; PeopleSnapshot: cameras.npz + poses.npz; \
+                 GHG: img/ + parm/; drivestudio: ego_pose/ + extrinsics/; \
+                 nerfstudio: transforms.json); name it with --format",
             ));
         }
     };
+    if options.downscale != 1 && format != Format::Colmap {
+        return Err(DatasetError::file(
+            root,
+            format!(
+                "downscale {} is read for COLMAP scenes only ({format:?} loads at the capture's \
+                 resolution; downscale in the consumer)",
+                options.downscale
+            ),
+        ));
+    }
     let mut dataset = match format {
         Format::Neuman => neuman::load(root),
         Format::Zju => zju::load(root),
@@ -306,6 +363,7 @@ pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError
         Format::Drivestudio => drivestudio::load(root),
         Format::Synthetic => synthetic::load(root),
         Format::Nerfstudio => nerfstudio(root),
+        Format::Colmap => colmap_scene::load(root, options.downscale),
     }?;
     if dataset.frame_times.len() != dataset.frame_count {
         let last = dataset.frame_count.saturating_sub(1).max(1) as f64;
@@ -315,7 +373,13 @@ pub fn load(root: &Path, format: Option<Format>) -> Result<Dataset, DatasetError
 }
 
 pub(crate) fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
-    let frames = crate::nerfstudio::read_transforms(&root.join("transforms.json"))?;
+    let transforms = crate::nerfstudio::read_transforms_with_points(&root.join("transforms.json"))?;
+    // `ply_file_path` is relative to the transforms.json, as nerfstudio resolves it.
+    let points = match &transforms.ply_file_path {
+        Some(ply) => crate::point_ply::read_points(&root.join(ply))?,
+        None => Vec::new(),
+    };
+    let frames = transforms.frames;
     let mut times: Vec<f64> = frames.iter().filter_map(|f| f.time).collect();
     times.sort_by(f64::total_cmp);
     times.dedup();
@@ -334,6 +398,7 @@ pub(crate) fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
             mask: f.mask_path.as_ref().map(|m| root.join(m)),
             mask_convention: MaskConvention::NonZeroIsPerson,
             other_masks: Default::default(),
+            depth: f.depth_file_path.as_ref().map(|d| root.join(d)),
         })
         .collect::<Vec<_>>();
     let frame_count = views.iter().map(|v| v.frame + 1).max().unwrap_or(0);
@@ -349,9 +414,10 @@ pub(crate) fn nerfstudio(root: &Path) -> Result<Dataset, DatasetError> {
         views,
         people: Vec::new(),
         splits: BTreeMap::new(),
-        points: Vec::new(),
+        points,
         boxes: Vec::new(),
         warnings: Vec::new(),
+        image_downscale: 1,
     })
 }
 

@@ -118,6 +118,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             mask,
             mask_convention: MaskConvention::ZeroIsPerson,
             other_masks: Default::default(),
+            depth: None,
         });
     }
     let frame_count = views.iter().map(|v| v.frame + 1).max().unwrap_or(0);
@@ -247,5 +248,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         points,
         boxes: Vec::new(),
         warnings: Vec::new(),
+        image_downscale: 1,
     })
 }

@@ -175,6 +175,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             mask: masks.get(f).cloned(),
             mask_convention: MaskConvention::NonZeroIsPerson,
             other_masks: Default::default(),
+            depth: None,
         })
         .collect();
 
@@ -255,5 +256,6 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         points: Vec::new(),
         boxes: Vec::new(),
         warnings,
+        image_downscale: 1,
     })
 }

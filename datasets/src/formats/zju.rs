@@ -194,6 +194,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
                 mask,
                 mask_convention: MaskConvention::NonZeroIsPerson,
                 other_masks: Default::default(),
+                depth: None,
             });
             index = index.or_else(|| parameter_index(rel));
         }
@@ -217,6 +218,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         points: Vec::new(),
         boxes: Vec::new(),
         warnings: Vec::new(),
+        image_downscale: 1,
     })
 }
 

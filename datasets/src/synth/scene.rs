@@ -289,7 +289,12 @@ impl Scene {
     }
 
     /// `tracks` at `frame`: one shadow map, views rendered in parallel.
-    fn render_tracks(&self, frame: usize, tracks: &[usize], with_people: bool) -> Vec<ViewTruth> {
+    pub fn render_tracks(
+        &self,
+        frame: usize,
+        tracks: &[usize],
+        with_people: bool,
+    ) -> Vec<ViewTruth> {
         assert!(
             frame < self.frame_count,
             "frame {frame} of {}",

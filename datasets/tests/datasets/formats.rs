@@ -1,95 +1,19 @@
-//! Dataset loaders on small fixtures written here in each format's exact layout (pickles,
-//! joblib dumps and numpy object files through `splatzoo_models::pickle::Writer`, which Python's
-//! own readers accept), each fixture's doc naming the original script whose output it copies:
-//! every convention conversion, and bad input named by file, field and expected shape. The file
-//! writers are in [`crate::fixtures`]; the awkward parts of the real releases have their own
-//! tests in [`crate::real_layouts`], which reuses these fixtures.
+//! Dataset loaders on small fixtures in each format's exact layout (pickles, joblib dumps and
+//! numpy object files through `splatzoo_models::pickle::Writer`, which Python's own readers
+//! accept), written by [`splatzoo_datasets::fixtures`], each fixture's doc naming the original
+//! script whose output it copies: every convention conversion, and bad input named by file,
+//! field and expected shape. The awkward parts of the real releases have their own tests in
+//! [`crate::real_layouts`], which reuses these fixtures.
 
-use crate::fixtures::{
-    close, ghg_fixture, write_mask, write_matrix, write_npy_f64, write_npy_u8, write_npz, write_rgb,
+use crate::fixtures::close;
+use splatzoo_datasets::fixtures::{
+    drivestudio_fixture, ghg_fixture, neuman_fixture, rot_y, rot_z, snapshot_fixture, write_annots,
+    write_mask, write_npy_f64, write_npz, write_params, write_rgb, zju_fixture,
 };
 use splatzoo_datasets::formats::check::check;
 use splatzoo_datasets::formats::zju::parameter_index;
 use splatzoo_datasets::formats::{Format, MaskConvention, detect, load};
-use splatzoo_models::pickle::{Writer, npy_object_bytes};
 use std::path::Path;
-
-fn rot_y(angle: f64) -> [[f64; 3]; 3] {
-    let (s, c) = angle.sin_cos();
-    [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
-}
-
-fn rot_z(angle: f64) -> [[f64; 3]; 3] {
-    let (s, c) = angle.sin_cos();
-    [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
-}
-
-/// A NeuMan scene as its preprocessing leaves it (`preprocess/gen_run.py`): a COLMAP text model
-/// (`sparse/`), undistorted `images/`, `segmentations/<name>` plus the `<name>.png` copy that
-/// NeuMan's detectron2 `demo/demo.py` also writes (0 = person, 255 = background), a joblib
-/// `smpl_output_optimized.pkl` and `alignments.npy` (`export_alignment.py`), read as
-/// `data_io/neuman_helper.py` reads them. 3 frames (listed out of order), frame 2 without an
-/// alignment.
-pub(crate) fn neuman_fixture(root: &Path, nan_pose: bool) {
-    let sparse = root.join("sparse");
-    std::fs::create_dir_all(&sparse).unwrap();
-    std::fs::write(
-        sparse.join("cameras.txt"),
-        "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n# Number of cameras: 1\n1 PINHOLE 8 6 10 11 4 3\n",
-    )
-    .unwrap();
-    // Image 1 turned 90° about y: q = (cos 45°, 0, sin 45°, 0).
-    let h = std::f64::consts::FRAC_1_SQRT_2;
-    std::fs::write(
-        sparse.join("images.txt"),
-        format!(
-            "# Image list with two lines of data per image:\n#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n#   POINTS2D[] as (X, Y, POINT3D_ID)\n# Number of images: 3, mean observations per image: 0\n\
-             2 1 0 0 0 0 0 2 1 00002.png\n\n1 {h} 0 {h} 0 0.5 0 3 1 00001.png\n\n3 1 0 0 0 0 0 1 1 00000.png\n\n"
-        ),
-    )
-    .unwrap();
-    std::fs::write(
-        sparse.join("points3D.txt"),
-        "# 3D point list with one line of data per point:\n1 0.5 1 2 255 0 51 0.1 1 0\n2 0 0 4 0 255 0 0.2\n",
-    )
-    .unwrap();
-    for k in 0..3 {
-        write_rgb(&root.join(format!("images/0000{k}.png")), 8, 6);
-        for name in [format!("0000{k}.png"), format!("0000{k}.png.png")] {
-            write_mask(&root.join("segmentations").join(name), 8, 6, 0, 255);
-        }
-    }
-    let mut w = Writer::new(true);
-    w.begin_dict().int(1).begin_dict().str("pose").begin_list();
-    for k in 0..3 {
-        let mut pose = vec![0.0; 72];
-        pose[0] = 0.1 * k as f64;
-        pose[2] = -0.2;
-        if nan_pose && k == 1 {
-            pose[40] = f64::NAN;
-        }
-        w.array(&[72], &pose, false);
-    }
-    w.end_list().str("betas").begin_list();
-    for k in 0..3 {
-        w.array(&[10], &[0.5 * k as f64; 10], false);
-    }
-    w.end_list().end_dict().end_dict();
-    std::fs::write(root.join("smpl_output_optimized.pkl"), w.finish()).unwrap();
-    // A = [(s R)ᵀ; t] with s = 1.5, R = 30° about z, t = (1, 2, 3), for frames 0 and 1.
-    let (s, r) = (1.5, rot_z(std::f64::consts::FRAC_PI_6));
-    // Row i of A's 3×3 block is column i of s R.
-    let mut a: Vec<f64> = (0..9).map(|k| s * r[k % 3][k / 3]).collect();
-    a.extend([1.0, 2.0, 3.0]);
-    let mut w = Writer::new(false);
-    w.begin_object_scalar().begin_dict();
-    for name in ["00000.png", "00001.png"] {
-        w.str(name).array(&[4, 3], &a, true);
-    }
-    w.end_dict().end_object_scalar();
-    std::fs::write(root.join("alignments.npy"), npy_object_bytes(&w.finish())).unwrap();
-    std::fs::write(root.join("test_split.txt"), "00001.png\n").unwrap();
-}
 
 #[test]
 fn neuman_scenes_load_in_our_conventions() {
@@ -198,116 +122,6 @@ fn bad_neuman_input_is_named() {
     std::fs::write(root.join("alignments.npy"), b"not numpy").unwrap();
     let e = load(root, None).unwrap_err().to_string();
     assert!(e.contains("alignments.npy"), "{e}");
-}
-
-/// One `(1, n)` float64 array per key.
-fn write_params(path: &Path, poses: &[f64], rh: [f64; 3], th: [f64; 3], shapes: &[f64]) {
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    let mut w = Writer::new(false);
-    w.begin_object_scalar().begin_dict();
-    w.str("poses").array(&[1, poses.len()], poses, true);
-    w.str("Rh").array(&[1, 3], &rh, true);
-    w.str("Th").array(&[1, 3], &th, true);
-    w.str("shapes").array(&[1, shapes.len()], shapes, true);
-    w.end_dict().end_object_scalar();
-    std::fs::write(path, npy_object_bytes(&w.finish())).unwrap();
-}
-
-/// `annots.npy` as neuralbody's `tools/custom/get_annots.py` writes it (`cams` lists, `ims`
-/// dicts holding the path list) for two cameras and two frames with image paths from
-/// `path(frame, camera)`.
-fn write_annots(root: &Path, k_shape: [usize; 2], path: impl Fn(usize, usize) -> String) {
-    write_annots_with(root, k_shape, path, false);
-}
-
-/// [`write_annots`], with each frame's paths as a numpy string array (`<U…`, the script without
-/// its `.tolist()`) where `numpy_strings`.
-pub(crate) fn write_annots_with(
-    root: &Path,
-    k_shape: [usize; 2],
-    path: impl Fn(usize, usize) -> String,
-    numpy_strings: bool,
-) {
-    let mut w = Writer::new(false);
-    w.begin_object_scalar()
-        .begin_dict()
-        .str("cams")
-        .begin_dict();
-    w.str("K").begin_list();
-    for c in 0..2 {
-        let f = 500.0 + c as f64;
-        let k = [f, 0.0, 4.0, 0.0, f + 2.0, 3.0, 0.0, 0.0, 1.0];
-        let n = k_shape[0] * k_shape[1];
-        w.array(
-            &k_shape,
-            &k[..n.min(9)]
-                .iter()
-                .chain(std::iter::repeat(&0.0))
-                .take(n)
-                .copied()
-                .collect::<Vec<_>>(),
-            true,
-        );
-    }
-    w.end_list().str("D").begin_list();
-    for _ in 0..2 {
-        w.array(&[5, 1], &[0.1, -0.05, 0.001, 0.002, 0.01], true);
-    }
-    w.end_list().str("R").begin_list();
-    for c in 0..2 {
-        let r = rot_y(0.3 * c as f64);
-        w.array(&[3, 3], &r.concat(), true);
-    }
-    w.end_list().str("T").begin_list();
-    for c in 0..2 {
-        w.array(&[3, 1], &[100.0 * c as f64, -250.0, 3000.0], true);
-    }
-    w.end_list().end_dict().str("ims").begin_list();
-    for f in 0..2 {
-        let paths: Vec<String> = (0..2).map(|c| path(f, c)).collect();
-        w.begin_dict().str("ims");
-        if numpy_strings {
-            let paths: Vec<&str> = paths.iter().map(String::as_str).collect();
-            w.string_array(&[paths.len()], &paths);
-        } else {
-            w.begin_list();
-            for p in &paths {
-                w.str(p);
-            }
-            w.end_list();
-        }
-        w.end_dict();
-    }
-    w.end_list().end_dict().end_object_scalar();
-    std::fs::write(root.join("annots.npy"), npy_object_bytes(&w.finish())).unwrap();
-}
-
-/// ZJU-MoCap's original layout (`CoreView_*`, as neuralbody's `lib/datasets/light_stage/`
-/// readers take it): `annots.npy`, `Camera_B*/` images, `mask_cihp/` masks (non-zero = person),
-/// `params/{i}.npy` EasyMocap parameters.
-pub(crate) fn zju_fixture(root: &Path) {
-    write_annots(root, [3, 3], |f, c| format!("Camera_B{}/{f:06}.jpg", c + 1));
-    for f in 0..2 {
-        for c in 0..2 {
-            write_rgb(&root.join(format!("Camera_B{}/{f:06}.jpg", c + 1)), 10, 8);
-            write_mask(
-                &root.join(format!("mask_cihp/Camera_B{}/{f:06}.png", c + 1)),
-                10,
-                8,
-                1,
-                0,
-            );
-        }
-        let mut poses = vec![0.0; 72];
-        poses[3] = 0.2 + f as f64;
-        write_params(
-            &root.join(format!("params/{f}.npy")),
-            &poses,
-            [0.0, std::f64::consts::FRAC_PI_2, 0.0],
-            [0.1, 0.2, 0.3 + f as f64],
-            &[0.25; 10],
-        );
-    }
 }
 
 #[test]
@@ -482,52 +296,6 @@ fn the_inspect_command_reports_and_names_the_first_problem() {
     assert!(String::from_utf8_lossy(&nothing.stdout).contains("format not recognised"));
 }
 
-/// PeopleSnapshot as InstantAvatar's `scripts/peoplesnapshot/preprocess_PeopleSnapshot.py`
-/// writes it: `cameras.npz` (float64 K and world-to-camera, int64 0-d height and width),
-/// `images/image_%04d.png`, `masks/mask_%04d.npy` (uint8 0/1), `poses.npz` with the release's
-/// `reconstructed_poses.hdf5` arrays copied as float32, **one pose row more than frames**, as the
-/// release has. 6 frames of 6×8 in a folder named like a subject.
-pub(crate) fn snapshot_fixture(root: &Path, nan: bool) {
-    let k = [500.0, 0.0, 2.5, 0.0, 510.0, 3.5, 0.0, 0.0, 1.0];
-    let e: Vec<f64> = (0..16)
-        .map(|i| if i % 5 == 0 { 1.0 } else { 0.0 })
-        .collect();
-    write_npz(
-        &root.join("cameras.npz"),
-        &[
-            ("intrinsic", &[3, 3], &k),
-            ("extrinsic", &[4, 4], &e),
-            ("height", &[], &[8.0]),
-            ("width", &[], &[6.0]),
-        ],
-        false,
-    );
-    let n = 6;
-    for f in 0..n {
-        write_rgb(&root.join(format!("images/image_{f:04}.png")), 6, 8);
-        let mask: Vec<u8> = (0..48).map(|i| (i % 6 < 3) as u8).collect();
-        write_npy_u8(&root.join(format!("masks/mask_{f:04}.npy")), 8, 6, &mask);
-    }
-    let poses = n + 1;
-    let mut thetas: Vec<f64> = (0..poses * 72).map(|i| (i % 72) as f64 * 0.001).collect();
-    thetas[0] = std::f64::consts::PI;
-    if nan {
-        thetas[72 * 2 + 10] = f64::NAN;
-    }
-    let transl: Vec<f64> = (0..poses)
-        .flat_map(|f| [0.1, 0.2, 5.0 + f as f64])
-        .collect();
-    write_npz(
-        &root.join("poses.npz"),
-        &[
-            ("thetas", &[poses as u64, 72], &thetas),
-            ("transl", &[poses as u64, 3], &transl),
-            ("betas", &[10], &[0.3; 10]),
-        ],
-        true,
-    );
-}
-
 #[test]
 fn people_snapshot_npz_form_loads_with_its_splits_and_refined_poses() {
     let dir = tempfile::tempdir().unwrap();
@@ -678,124 +446,6 @@ fn nerfstudio_folders_load_as_datasets() {
         (48, 0),
         "{report:?}"
     );
-}
-
-fn pose_z(angle: f64, t: [f64; 3]) -> [[f64; 4]; 4] {
-    let r = rot_z(angle);
-    [
-        [r[0][0], r[0][1], r[0][2], t[0]],
-        [r[1][0], r[1][1], r[1][2], t[1]],
-        [r[2][0], r[2][1], r[2][2], t[2]],
-        [0.0, 0.0, 0.0, 1.0],
-    ]
-}
-
-fn mul(a: [[f64; 4]; 4], b: [[f64; 4]; 4]) -> [[f64; 4]; 4] {
-    std::array::from_fn(|i| std::array::from_fn(|j| (0..4).map(|k| a[i][k] * b[k][j]).sum()))
-}
-
-/// A processed Waymo scene as drivestudio's `datasets/waymo/waymo_preprocess.py` writes it
-/// (`ego_pose/`, `extrinsics/`, `intrinsics/` by `np.savetxt`, `images/{t:03}_{cam}.jpg`,
-/// `dynamic_masks/{all,human,vehicle}/` for every image, `instances/*.json`) plus the sky masks
-/// and `humanpose/smpl.pkl` of its later steps, as `waymo_sourceloader.py` reads them. Two
-/// frames, cameras 0 and 3; the ego turned 30° about z at (10, 5, 0), then 2 m ahead.
-pub(crate) fn drivestudio_fixture(root: &Path, smpl_shape_ok: bool) {
-    let heading = std::f64::consts::FRAC_PI_6;
-    let ego = [
-        pose_z(heading, [10.0, 5.0, 0.0]),
-        pose_z(
-            heading,
-            [10.0 + 2.0 * heading.cos(), 5.0 + 2.0 * heading.sin(), 0.0],
-        ),
-    ];
-    for (t, e) in ego.iter().enumerate() {
-        write_matrix(&root.join(format!("ego_pose/{t:03}.txt")), *e);
-    }
-    write_matrix(&root.join("extrinsics/0.txt"), pose_z(0.0, [1.5, 0.0, 1.6]));
-    write_matrix(
-        &root.join("extrinsics/3.txt"),
-        pose_z(std::f64::consts::FRAC_PI_2, [1.0, 0.9, 1.6]),
-    );
-    std::fs::create_dir_all(root.join("intrinsics")).unwrap();
-    std::fs::write(
-        root.join("intrinsics/0.txt"),
-        "100\n101\n16\n12\n0.01\n0\n0\n0\n0\n",
-    )
-    .unwrap();
-    std::fs::write(root.join("intrinsics/3.txt"), "90 90 16 12 0 0 0 0 0\n").unwrap();
-    for t in 0..2 {
-        for cam in [0, 3] {
-            write_rgb(&root.join(format!("images/{t:03}_{cam}.jpg")), 32, 24);
-            for class in ["all", "human", "vehicle"] {
-                write_mask(
-                    &root.join(format!("dynamic_masks/{class}/{t:03}_{cam}.png")),
-                    32,
-                    24,
-                    if class == "vehicle" { 0 } else { 255 },
-                    0,
-                );
-            }
-            write_mask(
-                &root.join(format!("sky_masks/{t:03}_{cam}.png")),
-                32,
-                24,
-                0,
-                255,
-            );
-        }
-    }
-    // A pedestrian 8 m ahead of the first ego pose, 0.9 m up (its box centre), in both frames.
-    let object = |t: usize| mul(ego[0], pose_z(0.2 * t as f64, [8.0, 0.0, 0.9]));
-    let rows = |m: [[f64; 4]; 4]| serde_json::json!(m.to_vec());
-    let info = serde_json::json!({
-        "0": {"id": "abc", "class_name": "Vehicle", "frame_annotations": {
-            "frame_idx": [0], "obj_to_world": [rows(mul(ego[0], pose_z(0.0, [20.0, 3.0, 0.8])))], "box_size": [[4.5, 1.9, 1.6]]}},
-        "1": {"id": "def", "class_name": "Pedestrian", "frame_annotations": {
-            "frame_idx": [0, 1], "obj_to_world": [rows(object(0)), rows(object(1))], "box_size": [[0.6, 0.6, 1.8], [0.6, 0.7, 1.8]]}},
-    });
-    std::fs::create_dir_all(root.join("instances")).unwrap();
-    std::fs::write(root.join("instances/instances_info.json"), info.to_string()).unwrap();
-    std::fs::write(
-        root.join("instances/frame_instances.json"),
-        r#"{"0": [0, 1], "1": [1]}"#,
-    )
-    .unwrap();
-    // SMPL: identity orientation in camera 0's frame; joint 1 turned 0.5 rad about x; frame 1
-    // not valid.
-    let identity = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-    let (s, c) = 0.5f64.sin_cos();
-    let turned = [1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c];
-    let mut body = Vec::new();
-    for _ in 0..2 {
-        body.extend(turned);
-        for _ in 1..23 {
-            body.extend(identity);
-        }
-    }
-    let mut w = Writer::new(true);
-    w.begin_dict().int(1).begin_dict().str("smpl").begin_dict();
-    let orient_shape: &[usize] = if smpl_shape_ok {
-        &[2, 1, 3, 3]
-    } else {
-        &[2, 9]
-    };
-    w.str("global_orient").torch_tensor(
-        orient_shape,
-        &[identity, identity].concat(),
-        "FloatStorage",
-    );
-    w.str("body_pose")
-        .torch_tensor(&[2, 23, 3, 3], &body, "FloatStorage");
-    w.str("betas")
-        .torch_tensor(&[2, 10], &[0.4; 20], "FloatStorage");
-    w.end_dict();
-    w.str("selected_cam_idx")
-        .torch_tensor(&[2], &[0.0, -1.0], "LongStorage");
-    w.str("valid_mask")
-        .torch_tensor(&[2], &[1.0, 0.0], "BoolStorage");
-    w.end_dict().end_dict();
-    std::fs::create_dir_all(root.join("humanpose")).unwrap();
-    std::fs::write(root.join("humanpose/smpl.pkl"), w.finish()).unwrap();
 }
 
 #[test]

@@ -5,15 +5,13 @@
 //! fits beside the split folders and its integer pixel centres (`render_image.py`, its taichi
 //! renderer's `geometry.py`), NeuMan's `segmentations/<name>.npy` (`neuman_helper.py`) and
 //! ZJU-MoCap `annots.npy` files whose paths are numpy string arrays (neuralbody's
-//! `get_annots.py` without `.tolist()`). The fixtures are those of [`crate::formats`] and
-//! [`crate::fixtures`]; `inspect-dataset` is run on each to see warnings kept apart from
-//! problems.
+//! `get_annots.py` without `.tolist()`). The fixtures are [`splatzoo_datasets::fixtures`];
+//! `inspect-dataset` is run on each to see warnings kept apart from problems.
 
-use crate::fixtures::{
-    close, ghg_extrinsic, ghg_fit, ghg_subject, write_mask, write_npy_u8, write_npz, write_rgb,
-};
-use crate::formats::{
-    drivestudio_fixture, neuman_fixture, snapshot_fixture, write_annots_with, zju_fixture,
+use crate::fixtures::close;
+use splatzoo_datasets::fixtures::{
+    drivestudio_fixture, ghg_extrinsic, ghg_fit, ghg_subject, neuman_fixture, snapshot_fixture,
+    write_annots_with, write_mask, write_npy_u8, write_npz, write_rgb, zju_fixture,
 };
 use splatzoo_datasets::formats::check::check;
 use splatzoo_datasets::formats::{Format, load};
