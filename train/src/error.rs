@@ -6,6 +6,7 @@ use crate::config::ConfigError;
 use crate::ply::PlyError;
 use crate::views::DataError;
 use splatzoo_datasets::DatasetError;
+use splatzoo_models::body::BodyModelError;
 use splatzoo_models::networks::weights::WeightsError;
 use splatzoo_rasterizer::RasterError;
 
@@ -25,6 +26,8 @@ pub enum TrainError {
     Ply(#[from] PlyError),
     #[error(transparent)]
     Weights(#[from] WeightsError),
+    #[error(transparent)]
+    Body(#[from] BodyModelError),
     /// A knob out of its range: the key and what it must be.
     #[error("configuration: {0}")]
     Config(String),

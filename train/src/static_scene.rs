@@ -12,12 +12,12 @@ use crate::error::TrainError;
 use crate::gaussians::GaussianSet;
 use crate::harness::{EpochOrder, Evaluation, Method, MethodConfig, Say, ScoreSum, StepReport};
 use crate::images::{side_by_side, srgb_image, write_png};
-use crate::loss::{photometric, psnr, scalar, ssim};
+use crate::loss::{masked_l1, masked_psnr, masked_ssim, photometric, psnr, scalar, ssim};
 use crate::lpips::Lpips;
 use crate::optimizer::LearningRates;
 use crate::ply::write_ply;
 use crate::scene::{FrameQuery, GaussianNode, SceneGraph};
-use crate::views::{DataConfig, ViewSet};
+use crate::views::{DataConfig, Frame, ViewSet};
 use burn::tensor::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render};
@@ -86,9 +86,13 @@ impl MethodConfig for StaticConfig {
 /// `train-3dgs`'s shorthands.
 #[derive(clap::Args, Debug)]
 pub struct StaticArgs {
-    /// A nerfstudio folder (or its transforms.json) instead of the synthetic scene.
+    /// A capture folder (COLMAP, nerfstudio, NeuMan, ZJU-MoCap, PeopleSnapshot, GHG,
+    /// drivestudio, a `synth` export) instead of the synthetic scene.
     #[arg(long)]
     pub data: Option<PathBuf>,
+    /// The capture's format (detected from its files when absent).
+    #[arg(long, value_enum)]
+    pub format: Option<splatzoo_datasets::formats::Format>,
     /// Shorthand for `--set data.size=N` (synthetic image side).
     #[arg(long)]
     pub size: Option<u32>,
@@ -165,6 +169,22 @@ impl StaticTrainer {
         Ok(out.render)
     }
 
+    /// The loss of one render against a view's frame: photometric over the pixels that count.
+    fn view_loss(&self, image: Tensor<3>, frame: &Frame, in_step: bool) -> Tensor<1> {
+        let lift = |t: Tensor<3>| if in_step { t.autodiff() } else { t };
+        let target = lift(frame.image.clone());
+        match self.views.loss_weight(frame) {
+            None => photometric(image, target, self.config.lambda_dssim),
+            Some(weight) => {
+                let weight = if in_step { weight.autodiff() } else { weight };
+                let lambda = self.config.lambda_dssim;
+                let l1 = masked_l1(image.clone(), target.clone(), weight.clone());
+                let structure = (masked_ssim(image, target, weight) - 1.0) * -1.0;
+                l1 * (1.0 - lambda) + structure * lambda
+            }
+        }
+    }
+
     fn assemble(config: StaticConfig, views: ViewSet, device: &Device) -> Result<Self, TrainError> {
         let p = &views.points;
         if p.positions.is_empty() {
@@ -194,19 +214,24 @@ impl StaticTrainer {
 impl Method for StaticTrainer {
     const NAME: &'static str = "3dgs";
     const FORMAT: &'static str = "splatzoo-3dgs-2";
-    const ABOUT: &'static str =
-        "Static-scene 3D Gaussian splatting (synthetic default or a nerfstudio folder)";
+    const ABOUT: &'static str = "Static-scene 3D Gaussian splatting (synthetic default, or a capture in any format the loaders read)";
     type Config = StaticConfig;
     type Args = StaticArgs;
 
     fn overrides(args: &StaticArgs) -> Vec<String> {
         let mut sets = Vec::new();
         if let Some(path) = &args.data {
-            sets.push("data.source=\"nerfstudio\"".into());
+            sets.push("data.source=\"dataset\"".into());
             sets.push(format!(
                 "data.path={}",
                 toml::Value::from(path.display().to_string())
             ));
+        }
+        if let Some(format) = args.format {
+            let name = clap::ValueEnum::to_possible_value(&format)
+                .map(|v| v.get_name().to_owned())
+                .unwrap_or_default();
+            sets.push(format!("data.format={}", toml::Value::from(name)));
         }
         if let Some(size) = args.size {
             sets.push(format!("data.size={size}"));
@@ -253,9 +278,14 @@ impl Method for StaticTrainer {
         )
     }
 
+    fn decisions(&self) -> Vec<String> {
+        self.views.decisions.clone()
+    }
+
     /// One optimiser step on the next training view, then density control where scheduled.
     fn step(&mut self) -> Result<StepReport, TrainError> {
         let view = &self.views.train[self.order.next(self.views.train.len())];
+        let frame = self.views.frame(view)?;
         let settings = self.settings(view.camera);
         self.graph.begin_step();
         let query = FrameQuery {
@@ -266,11 +296,7 @@ impl Method for StaticTrainer {
         let out = self
             .graph
             .render(&query, self.background.clone().autodiff(), &settings)?;
-        let photo = photometric(
-            out.render.color.clone(),
-            view.image.clone().autodiff(),
-            self.config.lambda_dssim,
-        );
+        let photo = self.view_loss(out.render.color.clone(), &frame, true);
         let loss = match self.graph.regularisers() {
             Some(r) => photo.clone() + r,
             None => photo.clone(),
@@ -301,11 +327,22 @@ impl Method for StaticTrainer {
         let mut sum = ScoreSum::default();
         for (k, view) in self.views.test.iter().enumerate() {
             let image = self.render_test(k)?.color.clamp(0.0, 1.0);
-            sum.add(
-                psnr(image.clone(), view.image.clone()),
-                scalar(ssim(image.clone(), view.image.clone())),
-                lpips.map(|l| scalar(l.distance(image, view.image.clone()))),
-            );
+            let frame = self.views.frame(view)?;
+            let target = frame.image.clone();
+            let perceptual = lpips.map(|l| scalar(l.distance(image.clone(), target.clone())));
+            match self.views.loss_weight(&frame) {
+                None => sum.add(
+                    psnr(image.clone(), target.clone()),
+                    scalar(ssim(image, target)),
+                    perceptual,
+                ),
+                // Scored where it was trained: people and invalid pixels left out.
+                Some(weight) => sum.add(
+                    masked_psnr(image.clone(), target.clone(), weight.clone()),
+                    scalar(masked_ssim(image, target, weight)),
+                    perceptual,
+                ),
+            }
         }
         Ok(Evaluation::new(self.step, sum.mean()).with("gaussians", self.graph.gaussians()))
     }
@@ -330,7 +367,8 @@ impl Method for StaticTrainer {
         })?;
         for (k, view) in self.views.test.iter().enumerate() {
             let render = self.render_test(k)?;
-            let pair = side_by_side(&[srgb_image(&render.color), srgb_image(&view.image)]);
+            let truth = self.views.frame(view)?.image;
+            let pair = side_by_side(&[srgb_image(&render.color), srgb_image(&truth)]);
             write_png(&renders.join(format!("{}.png", view.name)), &pair)?;
         }
         let mut summary = serde_json::Map::new();

@@ -1,10 +1,17 @@
-//! `train-avatar`'s data from the synthetic generator: the `monocular` preset (a person walking
-//! a circle in a room, filmed by a hand-held camera, watched by a fixed one). Frames are split
-//! by index: every `holdout_every`-th frame is held out (novel pose, seen by the hand-held
-//! camera); the rest train from the hand-held camera, and the fixed camera at some of the
-//! training frames is the novel view. Each view carries the dataset's person mask; the prior
-//! track is the generator's perturbed motion, the truth its true motion.
+//! `train-avatar`'s data. By default from the synthetic generator: the `monocular` preset (a
+//! person walking a circle in a room, filmed by a hand-held camera, watched by a fixed one).
+//! Frames are split by index: every `holdout_every`-th frame is held out (novel pose, seen by
+//! the hand-held camera); the rest train from the hand-held camera, and the fixed camera at
+//! some of the training frames is the novel view. Each view carries the dataset's person mask;
+//! the prior track is the generator's perturbed motion, the truth its true motion.
+//!
+//! With `data.path`, a capture in any format with person masks and a pose track
+//! ([`super::capture`]); its pixels are decoded on demand through the engine's bounded
+//! [`ImageStore`].
 
+use crate::error::TrainError;
+use crate::views::init_points::back_project;
+use crate::views::{Frame, ImageSource, ImageStore, InitPoints};
 use burn::tensor::{Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 use splatzoo_datasets::image_io::linear_to_srgb;
@@ -13,27 +20,54 @@ use splatzoo_datasets::synth::prior::PriorNoise;
 use splatzoo_datasets::synth::scene::{ViewTruth, body_label};
 use splatzoo_datasets::synth::{Preset, SceneConfig};
 use splatzoo_rasterizer::Camera;
+use std::path::PathBuf;
 
-/// What the synthetic capture is made of.
+/// Which synthetic capture `train-avatar` makes when no capture folder is given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum AvatarPreset {
+    /// A person walking a circle in a room, a hand-held camera; a fixed corner camera is the
+    /// novel view.
+    Monocular,
+    /// The studio ring: four of its sixteen cameras train, four others are novel views.
+    Multiview,
+}
+
+/// What the capture is made of.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct AvatarDataConfig {
+    pub preset: AvatarPreset,
     pub seed: u64,
     pub width: u32,
     pub height: u32,
     pub frames: usize,
     /// Frame `t` is held out when `t % holdout_every == holdout_every − 1`.
     pub holdout_every: usize,
-    /// The fixed camera at every this-many-th training frame is a novel view.
+    /// The novel-view cameras at every this-many-th training frame are novel views.
     pub novel_view_every: usize,
     /// Samples per pixel along each axis of the ground-truth renderer.
     pub supersample: usize,
     pub noise: PriorNoise,
+    /// A capture folder to train on instead of the synthetic preset.
+    pub path: Option<PathBuf>,
+    /// Its format (detected when absent).
+    pub format: Option<String>,
+    /// Which of the capture's people (index into its pose tracks).
+    pub person: usize,
+    /// Cameras trained on (names as the loader gives them); empty: every camera. The others
+    /// at training frames are the novel views.
+    pub train_cameras: Vec<String>,
+    /// Capture images are box-filtered down by this integer factor.
+    pub downscale: u32,
+    /// Decoded images kept in memory, MiB.
+    pub cache_mib: usize,
 }
 
 impl Default for AvatarDataConfig {
     fn default() -> Self {
         Self {
+            preset: AvatarPreset::Monocular,
             seed: 0,
             width: 320,
             height: 240,
@@ -42,22 +76,33 @@ impl Default for AvatarDataConfig {
             novel_view_every: 4,
             supersample: 2,
             noise: PriorNoise::default(),
+            path: None,
+            format: None,
+            person: 0,
+            train_cameras: Vec::new(),
+            downscale: 1,
+            cache_mib: 4096,
         }
     }
 }
 
-/// One image with its person mask.
+/// One image of the capture (its pixels in the capture's store).
 pub struct AvatarView {
     pub name: String,
     pub frame: usize,
     pub camera: Camera,
+    pub key: usize,
+}
+
+/// A view's pixels.
+pub struct AvatarFrame {
     /// `[H, W, 3]` sRGB in [0, 1], the whole image.
     pub image: Tensor<3>,
     /// `[H, W]` 1 on the person.
     pub mask: Tensor<2>,
 }
 
-impl AvatarView {
+impl AvatarFrame {
     /// The image with everything outside the mask replaced by `background` (what a human-only
     /// avatar is trained and scored against, as GauHuman does on masked captures).
     pub fn masked_target(&self, background: &Tensor<1>) -> Tensor<3> {
@@ -68,6 +113,7 @@ impl AvatarView {
 }
 
 pub struct AvatarCapture {
+    pub store: ImageStore,
     pub train: Vec<AvatarView>,
     /// Training frames from a camera never trained on.
     pub novel_view: Vec<AvatarView>,
@@ -75,25 +121,60 @@ pub struct AvatarCapture {
     pub novel_pose: Vec<AvatarView>,
     /// The pose track training starts from (one row per frame).
     pub prior: PoseSequence,
-    /// The true motion, for pose error only.
-    pub truth: PoseSequence,
+    /// The true motion, for pose error only (synthetic captures).
+    pub truth: Option<PoseSequence>,
     /// Per frame: whether it has training images.
     pub trained: Vec<bool>,
     pub fps: f64,
+    /// What the loader decided and why.
+    pub decisions: Vec<String>,
+    /// Points a static background node can start from, and where they came from (the
+    /// capture's sparse points, or the synthetic truth's depth outside the person).
+    pub scenery_points: InitPoints,
+    pub scenery_source: Option<&'static str>,
 }
 
-fn view(truth: &ViewTruth, name: String, device: &Device) -> AvatarView {
+impl AvatarCapture {
+    /// A view's image and person mask (decoded on demand for captures on disk).
+    pub fn frame(&self, view: &AvatarView) -> Result<AvatarFrame, TrainError> {
+        let Frame { image, person, .. } = self.store.frame(view.key)?;
+        let mask = person
+            .ok_or_else(|| TrainError::Config(format!("view {}: no person mask", view.name)))?;
+        Ok(AvatarFrame { image, mask })
+    }
+}
+
+/// Back-projects every 8th pixel of a rendered view's depth outside the person (an RGB-D
+/// stand-in for SfM points of the surroundings).
+fn scenery_depth(truth: &ViewTruth, points: &mut InitPoints) {
+    let r = &truth.render;
+    let body = body_label(0);
+    let depth: Vec<f32> = r
+        .depth
+        .iter()
+        .zip(&r.label)
+        .map(|(&d, &l)| if l == body { f32::NAN } else { d })
+        .collect();
+    let srgb: Vec<f32> = r.color.iter().flat_map(|c| c.map(linear_to_srgb)).collect();
+    back_project(&truth.camera, &depth, &srgb, 8, points);
+}
+
+fn view(truth: &ViewTruth, name: String, store: &mut ImageStore, device: &Device) -> AvatarView {
     let r = &truth.render;
     let (h, w) = (r.height, r.width);
     let srgb: Vec<f32> = r.color.iter().flat_map(|c| c.map(linear_to_srgb)).collect();
     let body = body_label(0);
     let mask: Vec<f32> = r.label.iter().map(|&l| f32::from(l == body)).collect();
+    let key = store.push(ImageSource::Memory(Frame {
+        image: Tensor::from_data(TensorData::new(srgb, [h, w, 3]), device),
+        person: Some(Tensor::from_data(TensorData::new(mask, [h, w]), device)),
+        valid: None,
+    }));
     AvatarView {
         name,
         frame: truth.frame,
         camera: truth.camera,
-        image: Tensor::from_data(TensorData::new(srgb, [h, w, 3]), device),
-        mask: Tensor::from_data(TensorData::new(mask, [h, w]), device),
+        key,
     }
 }
 
@@ -102,64 +183,92 @@ impl AvatarDataConfig {
         frame % self.holdout_every == self.holdout_every - 1
     }
 
-    /// Builds and renders the capture (the slow part: every frame, both cameras).
+    /// The synthetic scene's camera tracks that train and those that are novel views.
+    fn synthetic_tracks(&self) -> (Vec<usize>, Vec<usize>) {
+        match self.preset {
+            AvatarPreset::Monocular => (vec![0], vec![1]),
+            // GauHuman's ZJU-MoCap protocol: four evenly spaced training cameras.
+            AvatarPreset::Multiview => (vec![0, 4, 8, 12], vec![2, 6, 10, 14]),
+        }
+    }
+
+    /// Builds and renders the synthetic capture (the slow part: every frame, every camera
+    /// used).
     pub fn build(&self, device: &Device) -> AvatarCapture {
+        let mut store = ImageStore::new(self.cache_mib, device);
+        let preset = match self.preset {
+            AvatarPreset::Monocular => Preset::Monocular,
+            AvatarPreset::Multiview => Preset::Multiview,
+        };
         let scene = SceneConfig {
             width: self.width,
             height: self.height,
             frames: Some(self.frames),
             noise: self.noise,
             supersample: self.supersample,
-            ..SceneConfig::new(Preset::Monocular, self.seed)
+            ..SceneConfig::new(preset, self.seed)
         }
         .build(device);
         let person = &scene.people[0];
         let frames = scene.frame_count;
+        let (train_tracks, novel_tracks) = self.synthetic_tracks();
         let trained: Vec<bool> = (0..frames).map(|t| !self.is_held_out(t)).collect();
         let (mut train, mut novel_view, mut novel_pose) = (Vec::new(), Vec::new(), Vec::new());
         let mut trained_seen = 0;
+        let mut scenery_points = InitPoints::default();
         for (t, &is_trained) in trained.iter().enumerate() {
-            if is_trained {
-                let wants_novel =
-                    trained_seen % self.novel_view_every == 0 && scene.tracks.len() == 2;
-                trained_seen += 1;
-                // Both cameras share one shadow map when the frame is also a novel view.
-                let mut views = if wants_novel {
-                    scene.render_frame(t)
-                } else {
-                    vec![scene.render_view(t, 0, true)]
-                };
-                if wants_novel {
-                    let fixed = views.pop().expect("the fixed camera, rendered last");
-                    novel_view.push(view(
-                        &fixed,
-                        format!("{}_{t:04}", scene.tracks[1].name),
-                        device,
-                    ));
+            let wants_novel = is_trained && trained_seen % self.novel_view_every == 0;
+            trained_seen += usize::from(is_trained);
+            let mut tracks = train_tracks.clone();
+            if wants_novel {
+                tracks.extend(&novel_tracks);
+            }
+            // One shadow map for every camera of the frame.
+            for truth in scene.render_tracks(t, &tracks, true) {
+                if is_trained && train_tracks.contains(&truth.track) && train.len() % 4 == 0 {
+                    scenery_depth(&truth, &mut scenery_points);
                 }
-                let first = views.pop().expect("one view");
-                train.push(view(
-                    &first,
-                    format!("{}_{t:04}", scene.tracks[0].name),
-                    device,
-                ));
-            } else {
-                let truth = scene.render_view(t, 0, true);
-                novel_pose.push(view(
-                    &truth,
-                    format!("{}_{t:04}", scene.tracks[0].name),
-                    device,
-                ));
+                let set = if !is_trained {
+                    &mut novel_pose
+                } else if train_tracks.contains(&truth.track) {
+                    &mut train
+                } else {
+                    &mut novel_view
+                };
+                let name = format!("{}_{t:04}", scene.tracks[truth.track].name);
+                set.push(view(&truth, name, &mut store, device));
             }
         }
+        let names = |tracks: &[usize]| {
+            tracks
+                .iter()
+                .map(|&k| scene.tracks[k].name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         AvatarCapture {
+            store,
             train,
             novel_view,
             novel_pose,
             prior: person.prior.clone(),
-            truth: person.motion.clone(),
+            truth: Some(person.motion.clone()),
             trained,
             fps: scene.fps,
+            decisions: vec![
+                format!(
+                    "synthetic {:?} preset: the generator's perturbed track as the prior",
+                    self.preset
+                ),
+                format!(
+                    "training cameras {}; novel views from {}",
+                    names(&train_tracks),
+                    names(&novel_tracks)
+                ),
+            ],
+            scenery_source: (!scenery_points.is_empty())
+                .then_some("the rendered depth outside the person"),
+            scenery_points,
         }
     }
 }

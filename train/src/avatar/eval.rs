@@ -4,7 +4,7 @@
 //! plain-template baseline (Gaussians fixed on the posed mesh, each the mean colour of its
 //! projections into the training images).
 
-use super::data::AvatarView;
+use super::data::AvatarFrame;
 use crate::harness::{ScoreSum, Scores};
 use crate::host_f32;
 use crate::loss::{masked_psnr, masked_ssim, psnr, scalar, ssim};
@@ -24,15 +24,14 @@ pub struct ViewScores {
     pub human: Scores,
 }
 
-/// Scores renders (clamped to [0, 1]) against the masked targets of `views`.
+/// Scores renders (clamped to [0, 1]) against the masked targets of their frames.
 pub fn score_views(
-    renders: impl Iterator<Item = Render>,
-    views: &[AvatarView],
+    pairs: impl Iterator<Item = (Render, AvatarFrame)>,
     background: &Tensor<1>,
     lpips: Option<&Lpips>,
 ) -> ViewScores {
     let (mut full, mut human) = (ScoreSum::default(), ScoreSum::default());
-    for (render, view) in renders.zip(views) {
+    for (render, view) in pairs {
         let image = render.color.clamp(0.0, 1.0);
         let target = view.masked_target(background);
         let perceptual = lpips.map(|l| scalar(l.distance(image.clone(), target.clone())));
@@ -112,7 +111,8 @@ pub fn project(camera: &Camera, points: &[[f32; 3]]) -> Vec<(f32, f32, f32)> {
 /// Adds the colour under each visible Gaussian (centre inside the mask and in front of the
 /// template's own depth by at most `tolerance` metres) to `sum`/`count`.
 pub fn accumulate_colours(
-    view: &AvatarView,
+    camera: &Camera,
+    view: &AvatarFrame,
     means: &[[f32; 3]],
     depth: &Tensor<2>,
     tolerance: f32,
@@ -121,7 +121,7 @@ pub fn accumulate_colours(
 ) {
     let [h, w] = view.mask.dims();
     let (image, mask, depth) = (host_f32(&view.image), host_f32(&view.mask), host_f32(depth));
-    for (g, (u, v, z)) in project(&view.camera, means).into_iter().enumerate() {
+    for (g, (u, v, z)) in project(camera, means).into_iter().enumerate() {
         if z <= 0.0 || u < 0.0 || v < 0.0 {
             continue;
         }

@@ -11,11 +11,13 @@
 //!
 //! [`SkinnedGaussianNode`]: crate::scene::SkinnedGaussianNode
 
+pub mod capture;
 pub mod data;
 mod eval;
+pub mod scenery;
 mod trainer;
 
-pub use data::{AvatarCapture, AvatarDataConfig, AvatarView};
+pub use data::{AvatarCapture, AvatarDataConfig, AvatarFrame, AvatarPreset, AvatarView};
 pub use trainer::{AvatarArgs, AvatarTrainer, HUMAN};
 
 use crate::backend::Backend;
@@ -25,6 +27,7 @@ use crate::harness::MethodConfig;
 use crate::optimizer::LearningRates;
 use crate::scene::skinned::SkinnedConfig;
 use serde::{Deserialize, Serialize};
+use splatzoo_models::body::{BodyModel, builtin_body, load_body_model};
 use std::path::PathBuf;
 
 /// Every knob of a `train-avatar` run.
@@ -37,6 +40,8 @@ pub struct AvatarConfig {
     pub checkpoint_every: usize,
     pub seed: u64,
     pub lpips_weights: Option<PathBuf>,
+    /// An SMPL, SMPL-H or SMPL-X file (`.npz`/`.pkl`); the built-in body when absent.
+    pub body_model: Option<PathBuf>,
     /// Weight of D-SSIM in the photometric loss.
     pub lambda_dssim: f64,
     /// Weight of `|alpha − mask|`.
@@ -49,6 +54,13 @@ pub struct AvatarConfig {
     pub sh_degree_every: usize,
     /// sRGB background the avatar is rendered over (and the masked targets use).
     pub background: [f32; 3],
+    /// A static background node beside the avatar: absent, where the capture has sparse
+    /// points of its surroundings; `true`/`false` force it.
+    pub scenery: Option<bool>,
+    /// Weight of the composite (human + background, whole image) loss when there is one.
+    pub scenery_weight: f64,
+    /// The background node's density control.
+    pub scenery_densify: DensifyConfig,
     pub data: AvatarDataConfig,
     pub node: SkinnedConfig,
     pub rates: LearningRates,
@@ -64,6 +76,7 @@ impl Default for AvatarConfig {
             checkpoint_every: 1000,
             seed: 0,
             lpips_weights: None,
+            body_model: None,
             lambda_dssim: 0.2,
             mask_weight: 0.1,
             scale_weight: 1.0,
@@ -71,6 +84,9 @@ impl Default for AvatarConfig {
             sh_degree: 1,
             sh_degree_every: 500,
             background: [0.0; 3],
+            scenery: None,
+            scenery_weight: 1.0,
+            scenery_densify: DensifyConfig::default(),
             data: AvatarDataConfig::default(),
             node: SkinnedConfig::default(),
             rates: LearningRates::default(),
@@ -78,6 +94,16 @@ impl Default for AvatarConfig {
                 max_gaussians: 60_000,
                 ..DensifyConfig::default()
             },
+        }
+    }
+}
+
+impl AvatarConfig {
+    /// The body the avatar is skinned on: `body_model`'s file, else the built-in body.
+    pub fn body(&self) -> Result<BodyModel, TrainError> {
+        match &self.body_model {
+            Some(path) => Ok(load_body_model(path)?),
+            None => Ok(builtin_body().model.clone()),
         }
     }
 }
@@ -99,6 +125,9 @@ impl MethodConfig for AvatarConfig {
         if self.data.holdout_every < 2 || self.data.novel_view_every == 0 {
             return bad("data.holdout_every ≥ 2 and data.novel_view_every ≥ 1".into());
         }
+        if self.data.downscale == 0 {
+            return bad("data.downscale ≥ 1".into());
+        }
         if self.data.frames < self.data.holdout_every {
             return bad(format!(
                 "data.frames ({}) must be at least data.holdout_every ({})",
@@ -112,6 +141,7 @@ impl MethodConfig for AvatarConfig {
             ("mask_weight", self.mask_weight),
             ("scale_weight", self.scale_weight),
             ("max_scale", self.max_scale),
+            ("scenery_weight", self.scenery_weight),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(format!("{name} must be finite and ≥ 0, got {v}"));

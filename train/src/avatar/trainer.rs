@@ -7,19 +7,22 @@ use super::data::{AvatarCapture, AvatarView};
 use super::eval::{
     HUMAN_REGION, ViewScores, accumulate_colours, mpjpe_mm, score_views, track_joints,
 };
+use super::scenery::{SCENERY, build_node, decide};
 use crate::checkpoint::Checkpoint;
 use crate::error::TrainError;
 use crate::gaussians::{GaussianSet, SH_C0};
 use crate::harness::{EpochOrder, Evaluation, Method, MethodConfig, Say, Scores, StepReport};
 use crate::host_f32;
 use crate::images::{side_by_side, srgb_image, write_png};
-use crate::loss::{photometric, scalar, silhouette};
+use crate::loss::{photometric, psnr, scalar, silhouette};
 use crate::lpips::Lpips;
 use crate::ply::write_ply;
-use crate::scene::{FrameContext, FrameQuery, SceneNode, SkinnedGaussianNode, StepEnd};
+use crate::scene::{
+    FrameContext, FrameQuery, GaussianNode, SceneNode, SkinnedGaussianNode, StepEnd, concatenate,
+};
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::pose_sequence::{PoseSequence, write_pose_sequence};
-use splatzoo_models::body::{BodyModel, builtin_body};
+use splatzoo_models::body::BodyModel;
 use splatzoo_models::rotation_scalar::matrix_axis_angle;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render, Splats, rasterize};
 use std::path::Path;
@@ -36,12 +39,27 @@ pub struct AvatarArgs {
     /// Train with the prior's poses as they are (the ablation arm).
     #[arg(long)]
     pub no_pose_refinement: bool,
+    /// The synthetic capture: `monocular` (default) or `multiview` (shorthand for
+    /// `--set data.preset=…`).
+    #[arg(long, value_enum)]
+    pub preset: Option<super::data::AvatarPreset>,
+    /// A capture folder with person masks and a pose track, instead of the synthetic preset.
+    #[arg(long)]
+    pub data: Option<std::path::PathBuf>,
+    /// The capture's format (detected from its files when absent).
+    #[arg(long, value_enum)]
+    pub format: Option<splatzoo_datasets::formats::Format>,
+    /// An SMPL, SMPL-H or SMPL-X model file (`.npz` or `.pkl`) instead of the built-in body.
+    #[arg(long)]
+    pub body_model: Option<std::path::PathBuf>,
 }
 
 pub struct AvatarTrainer {
     pub config: AvatarConfig,
     pub capture: AvatarCapture,
     pub node: SkinnedGaussianNode,
+    /// The static background node, where the capture gets one ([`super::scenery`]).
+    pub scenery: Option<GaussianNode>,
     model: BodyModel,
     pub step: usize,
     /// Orders the training frames.
@@ -88,17 +106,53 @@ impl AvatarTrainer {
         self.raster(&self.splats(&view.camera, view.frame), view.camera, false)
     }
 
+    /// The background node's splats (`None` without one).
+    fn scenery_splats(&self, camera: &Camera, frame: usize) -> Option<Splats> {
+        let query = FrameQuery {
+            camera,
+            frame,
+            time: frame as f64 / self.capture.fps,
+        };
+        let scenery = self.scenery.as_ref()?;
+        Some(
+            scenery
+                .render(&query, &FrameContext { outputs: &[] })
+                .splats,
+        )
+    }
+
+    /// Human and background in one render (no autodiff), where there is a background node.
+    pub fn render_scene(&self, view: &AvatarView) -> Result<Option<Render>, TrainError> {
+        let Some(scenery) = self.scenery_splats(&view.camera, view.frame) else {
+            return Ok(None);
+        };
+        let human = self.splats(&view.camera, view.frame);
+        Ok(Some(self.raster(
+            &concatenate(vec![human, scenery]),
+            view.camera,
+            false,
+        )?))
+    }
+
+    /// Full-image PSNR of the composite render over `views`.
+    fn scene_psnr(&self, views: &[AvatarView]) -> Result<Option<f64>, TrainError> {
+        let mut sum = 0.0;
+        for view in views {
+            let Some(render) = self.render_scene(view)? else {
+                return Ok(None);
+            };
+            let image = self.capture.frame(view)?.image;
+            sum += psnr(render.color.clamp(0.0, 1.0), image);
+        }
+        Ok((!views.is_empty()).then(|| sum / views.len() as f64))
+    }
+
     fn score(&self, views: &[AvatarView], lpips: Option<&Lpips>) -> Result<ViewScores, TrainError> {
-        let renders = views
+        let pairs = views
             .iter()
-            .map(|v| self.render_view(v))
-            .collect::<Result<Vec<_>, _>>()?;
-        Ok(score_views(
-            renders.into_iter(),
-            views,
-            &self.background,
-            lpips,
-        ))
+            .map(|v| Ok((self.render_view(v)?, self.capture.frame(v)?)))
+            .collect::<Result<Vec<_>, TrainError>>()?;
+        Ok(score_views(pairs.into_iter(), &self.background, lpips))
     }
 
     /// `[F, J, 3]` the joints of the refined track (interpolated at held-out frames).
@@ -148,7 +202,16 @@ impl AvatarTrainer {
                 .chunks(3)
                 .map(|p| [p[0], p[1], p[2]])
                 .collect();
-            accumulate_colours(view, &means, &depth, 0.02, &mut sum, &mut count);
+            let frame = self.capture.frame(view)?;
+            accumulate_colours(
+                &view.camera,
+                &frame,
+                &means,
+                &depth,
+                0.02,
+                &mut sum,
+                &mut count,
+            );
         }
         let dc: Vec<f32> = sum
             .iter()
@@ -169,8 +232,11 @@ impl AvatarTrainer {
 
     fn assemble(config: AvatarConfig, device: &Device) -> Result<Self, TrainError> {
         config.validate()?;
-        let capture = config.data.build(device);
-        let model = builtin_body().model.clone();
+        let model = config.body()?;
+        let capture = match config.data.path {
+            Some(_) => super::capture::load(&config.data, &model, device)?,
+            None => config.data.build(device),
+        };
         let node = SkinnedGaussianNode::new(
             HUMAN,
             &model,
@@ -183,12 +249,21 @@ impl AvatarTrainer {
             config.seed ^ 0xA7A7_0001,
             device,
         )?;
+        let (with_scenery, why) = decide(&config, &capture);
+        let mut capture = capture;
+        capture.decisions.push(why);
+        let scenery = if with_scenery {
+            Some(build_node(&config, &capture, device)?)
+        } else {
+            None
+        };
         let background = Tensor::<1>::from_floats(config.background.as_slice(), device);
         Ok(Self {
             order: EpochOrder::new(config.seed ^ 0xA7A7_0000),
             config,
             capture,
             node,
+            scenery,
             model,
             step: 0,
             background,
@@ -209,6 +284,28 @@ impl Method for AvatarTrainer {
         if let Some(frames) = args.frames {
             sets.push(format!("data.frames={frames}"));
         }
+        if let Some(preset) = args.preset {
+            let name = format!("{preset:?}").to_lowercase();
+            sets.push(format!("data.preset=\"{name}\""));
+        }
+        if let Some(path) = &args.data {
+            sets.push(format!(
+                "data.path={}",
+                toml::Value::from(path.display().to_string())
+            ));
+        }
+        if let Some(format) = args.format {
+            let name = clap::ValueEnum::to_possible_value(&format)
+                .map(|v| v.get_name().to_owned())
+                .unwrap_or_default();
+            sets.push(format!("data.format={}", toml::Value::from(name)));
+        }
+        if let Some(path) = &args.body_model {
+            sets.push(format!(
+                "body_model={}",
+                toml::Value::from(path.display().to_string())
+            ));
+        }
         if args.no_pose_refinement {
             sets.push("node.refine_rotations=false".into());
             sets.push("node.refine_translation=false".into());
@@ -228,6 +325,9 @@ impl Method for AvatarTrainer {
     ) -> Result<Self, TrainError> {
         let mut trainer = Self::assemble(config, device)?;
         trainer.node.load(checkpoint, HUMAN, device)?;
+        if let Some(scenery) = &mut trainer.scenery {
+            scenery.load(checkpoint, SCENERY, device)?;
+        }
         trainer.step = checkpoint.meta_parsed("step")?;
         trainer.order = EpochOrder::load(checkpoint, trainer.capture.train.len())?;
         Ok(trainer)
@@ -249,6 +349,10 @@ impl Method for AvatarTrainer {
         )
     }
 
+    fn decisions(&self) -> Vec<String> {
+        self.capture.decisions.clone()
+    }
+
     fn baselines(&self, lpips: Option<&Lpips>) -> Result<Vec<(String, Scores)>, TrainError> {
         let template = self.plain_template()?;
         let mut out = Vec::new();
@@ -256,14 +360,17 @@ impl Method for AvatarTrainer {
             ("plain_template/novel_view", &self.capture.novel_view),
             ("plain_template/novel_pose", &self.capture.novel_pose),
         ] {
-            let renders = views
+            let pairs = views
                 .iter()
                 .map(|v| {
                     let posed = self.node.posed(template.clone(), v.frame).splats;
-                    self.raster(&posed, v.camera, false)
+                    Ok((
+                        self.raster(&posed, v.camera, false)?,
+                        self.capture.frame(v)?,
+                    ))
                 })
-                .collect::<Result<Vec<_>, _>>()?;
-            let scores = score_views(renders.into_iter(), views, &self.background, lpips);
+                .collect::<Result<Vec<_>, TrainError>>()?;
+            let scores = score_views(pairs.into_iter(), &self.background, lpips);
             out.push((name.to_owned(), scores.human));
         }
         Ok(out)
@@ -273,12 +380,17 @@ impl Method for AvatarTrainer {
     fn step(&mut self) -> Result<StepReport, TrainError> {
         let index = self.order.next(self.capture.train.len());
         self.node.begin_step();
+        if let Some(scenery) = &mut self.scenery {
+            scenery.begin_step();
+        }
         let view = &self.capture.train[index];
-        let render = self.raster(&self.splats(&view.camera, view.frame), view.camera, true)?;
-        let target = view.masked_target(&self.background).autodiff();
+        let frame = self.capture.frame(view)?;
+        let human = self.splats(&view.camera, view.frame);
+        let render = self.raster(&human, view.camera, true)?;
+        let target = frame.masked_target(&self.background).autodiff();
         let photo = photometric(render.color.clone(), target, self.config.lambda_dssim);
         let mut loss = photo.clone()
-            + silhouette(render.alpha.clone(), view.mask.clone().autodiff())
+            + silhouette(render.alpha.clone(), frame.mask.clone().autodiff())
                 * self.config.mask_weight;
         if let Some(r) = self.node.regulariser() {
             loss = loss + r;
@@ -289,15 +401,44 @@ impl Method for AvatarTrainer {
             let excess = (leaves.log_scales.clone().exp() - self.config.max_scale).clamp_min(0.0);
             loss = loss + excess.mean() * self.config.scale_weight;
         }
+        let g = human.len();
+        let composite = match self.scenery_splats(&view.camera, view.frame) {
+            None => None,
+            Some(scenery) => {
+                let b = scenery.len();
+                let both = concatenate(vec![human, scenery]);
+                let render = self.raster(&both, view.camera, true)?;
+                let whole = photometric(
+                    render.color.clone(),
+                    frame.image.clone().autodiff(),
+                    self.config.lambda_dssim,
+                );
+                loss = loss + whole * self.config.scenery_weight;
+                Some((render, b))
+            }
+        };
         let grads = loss.backward();
-        let rows = 0..self.node.gaussians();
+        let progress = self.step as f64 / self.config.iterations as f64;
+        let mut renders = vec![(&render, 0..g)];
+        if let Some((both, _)) = &composite {
+            renders.push((both, 0..g));
+        }
         let end = StepEnd {
             grads: &grads,
-            renders: vec![(&render, rows)],
+            renders,
             step: self.step,
-            progress: self.step as f64 / self.config.iterations as f64,
+            progress,
         };
         let report = self.node.end_step(&end);
+        if let (Some(scenery), Some((both, b))) = (&mut self.scenery, &composite) {
+            let end = StepEnd {
+                grads: &grads,
+                renders: vec![(both, g..g + b)],
+                step: self.step,
+                progress,
+            };
+            scenery.end_step(&end);
+        }
         self.step += 1;
         Ok(StepReport {
             loss: scalar(photo.inner()),
@@ -309,9 +450,7 @@ impl Method for AvatarTrainer {
         let view = self.score(&self.capture.novel_view, lpips)?;
         let novel_pose = self.score(&self.capture.novel_pose, lpips)?;
         let device = self.background.device();
-        let truth = track_joints(&self.model, &self.capture.truth, &device);
-        let prior = track_joints(&self.model, &self.capture.prior, &device);
-        Ok(Evaluation::new(self.step, view.human)
+        let mut evaluation = Evaluation::new(self.step, view.human)
             .with("scores", "novel view, human region")
             .with("human_region", HUMAN_REGION)
             .with("novel_view_full_psnr", view.full.psnr)
@@ -319,14 +458,37 @@ impl Method for AvatarTrainer {
             .with("novel_pose_human_psnr", novel_pose.human.psnr)
             .with("novel_pose_human_ssim", novel_pose.human.ssim)
             .with("novel_pose_full_psnr", novel_pose.full.psnr)
-            .with("mpjpe_mm", mpjpe_mm(self.refined_joints(), truth.clone()))
-            .with("prior_mpjpe_mm", mpjpe_mm(prior, truth))
-            .with("gaussians", self.node.gaussians()))
+            .with("novel_view_images", self.capture.novel_view.len())
+            .with("novel_pose_images", self.capture.novel_pose.len())
+            .with("gaussians", self.node.gaussians());
+        if let Some(scenery) = &self.scenery {
+            evaluation = evaluation
+                .with("background_gaussians", scenery.gaussians())
+                .with(
+                    "novel_view_scene_psnr",
+                    self.scene_psnr(&self.capture.novel_view)?,
+                )
+                .with(
+                    "novel_pose_scene_psnr",
+                    self.scene_psnr(&self.capture.novel_pose)?,
+                );
+        }
+        if let Some(truth) = &self.capture.truth {
+            let truth = track_joints(&self.model, truth, &device);
+            let prior = track_joints(&self.model, &self.capture.prior, &device);
+            evaluation = evaluation
+                .with("mpjpe_mm", mpjpe_mm(self.refined_joints(), truth.clone()))
+                .with("prior_mpjpe_mm", mpjpe_mm(prior, truth));
+        }
+        Ok(evaluation)
     }
 
     fn checkpoint(&self) -> Checkpoint {
         let mut c = Checkpoint::default();
         self.node.save(&mut c, HUMAN);
+        if let Some(scenery) = &self.scenery {
+            scenery.save(&mut c, SCENERY);
+        }
         self.order.save(&mut c);
         c
     }
@@ -339,6 +501,9 @@ impl Method for AvatarTrainer {
     ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError> {
         let canonical: &GaussianSet = self.node.canonical_set();
         write_ply(&run.join("canonical.ply"), canonical)?;
+        if let Some(scenery) = &self.scenery {
+            write_ply(&run.join("background.ply"), &scenery.set)?;
+        }
         write_pose_sequence(&run.join("refined_poses.npz"), &self.refined_track())?;
         let renders = run.join("renders");
         std::fs::create_dir_all(&renders).map_err(|e| {
@@ -350,7 +515,7 @@ impl Method for AvatarTrainer {
         ] {
             for view in views {
                 let render = self.render_view(view)?;
-                let target = view.masked_target(&self.background);
+                let target = self.capture.frame(view)?.masked_target(&self.background);
                 let pair = side_by_side(&[srgb_image(&render.color), srgb_image(&target)]);
                 write_png(&renders.join(format!("{set}_{}.png", view.name)), &pair)?;
             }

@@ -14,7 +14,6 @@ use clap::Parser;
 use splatzoo_datasets::pose_sequence::{PoseSequence, UpAxis, load_driving_sequence};
 use splatzoo_datasets::synth::motion::{Motion, Start, generate};
 use splatzoo_datasets::synth::scene::standing_height;
-use splatzoo_models::body::builtin_body;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, rasterize};
 use splatzoo_train::TrainError;
 use splatzoo_train::avatar::{AvatarTrainer, HUMAN};
@@ -65,7 +64,7 @@ fn run(args: Args) -> Result<(), TrainError> {
     let checkpoint = Checkpoint::read(&args.checkpoint)?;
     let config = checkpoint_config::<AvatarTrainer>(&checkpoint)?;
     let device = args.backend.device();
-    let body = &builtin_body().model;
+    let body = &config.body()?;
     // The trained shape, for the built-in walk's standing height.
     let betas: burn::tensor::Tensor<2> = checkpoint.tensor(
         &format!("{HUMAN}.betas"),

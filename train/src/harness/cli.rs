@@ -158,6 +158,9 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
         },
         start.elapsed().as_secs_f64()
     ));
+    for decision in method.decisions() {
+        out.say(&format!("  {decision}"));
+    }
     let mut history = match &resumed {
         Some(c) => resumed_history(c, method.steps())?,
         None => {
@@ -263,6 +266,7 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
     summary.insert("seconds".into(), seconds.into());
     summary.insert("steps_per_second".into(), rate.into());
     summary.insert("backend".into(), config.backend().name().into());
+    summary.insert("decisions".into(), method.decisions().into());
     summary.extend(extra);
     out.write_metrics(&metrics)?;
     let headline = history

@@ -109,6 +109,11 @@ pub trait Method: Sized {
     fn steps(&self) -> usize;
     /// The line printed once the method is ready (data, sizes).
     fn describe(&self) -> String;
+    /// What the method decided from its data and why (which nodes and modules the scene got,
+    /// how the capture was split), printed one per line after [`Self::describe`].
+    fn decisions(&self) -> Vec<String> {
+        Vec::new()
+    }
     /// Reference scores computed once at the start of a fresh run (`metrics.json`'s
     /// `baselines`), by name.
     fn baselines(&self, _lpips: Option<&Lpips>) -> Result<Vec<(String, Scores)>, TrainError> {

@@ -3,6 +3,8 @@
 //! node.
 
 mod avatar;
+mod capture_pieces;
+mod captures;
 mod commands;
 mod losses_and_ply;
 mod skinned;

@@ -1,0 +1,183 @@
+//! Points to initialise Gaussians from, in order of preference: a capture's sparse points
+//! (COLMAP's `points3D`, nerfstudio's `ply_file_path`, NeuMan's model), each scaled as 3DGS
+//! does by the root mean square distance to its three nearest neighbours; depth back-projected
+//! from the training views (the synthetic ground truth, a nerfstudio `depth_file_path`; an
+//! RGB-D stand-in for SfM points); otherwise uniform random points in the cameras' bounding box
+//! (3DGS's random initialisation).
+
+use rayon::prelude::*;
+use splatzoo_datasets::formats::SparsePoint;
+use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_rasterizer::Camera;
+use std::collections::HashMap;
+
+/// Points to initialise Gaussians from.
+#[derive(Debug, Clone, Default)]
+pub struct InitPoints {
+    pub positions: Vec<[f32; 3]>,
+    /// sRGB in [0, 1].
+    pub colours: Vec<[f32; 3]>,
+    /// Isotropic standard deviation per point, world units.
+    pub sigmas: Vec<f32>,
+}
+
+impl InitPoints {
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Sparse points, each with 3DGS's scale: `sqrt(mean d²)` over its three nearest neighbours
+    /// (`distCUDA2`), floored at 1e-7 of the cloud's diagonal so duplicates stay finite.
+    pub fn from_sparse(points: &[SparsePoint]) -> Self {
+        let positions: Vec<[f32; 3]> = points.iter().map(|(p, _)| p.map(|v| v as f32)).collect();
+        let sigmas = nearest_neighbour_scales(&positions, 3);
+        Self {
+            colours: points.iter().map(|(_, c)| *c).collect(),
+            positions,
+            sigmas,
+        }
+    }
+}
+
+/// `sqrt(mean d²)` over each point's `k` nearest other points, by a uniform grid searched in
+/// growing shells (exact: a shell is only skipped once it cannot hold a nearer point).
+pub fn nearest_neighbour_scales(positions: &[[f32; 3]], k: usize) -> Vec<f32> {
+    let n = positions.len();
+    if n < 2 {
+        return vec![1e-2; n];
+    }
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in positions {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let diagonal = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f32>().sqrt();
+    let floor = (diagonal * 1e-7).max(f32::MIN_POSITIVE);
+    // About four points per occupied cell for an evenly spread cloud.
+    let volume: f32 = (0..3)
+        .map(|a| (hi[a] - lo[a]).max(diagonal * 1e-3))
+        .product();
+    let cell = (4.0 * volume / n as f32).cbrt().max(floor);
+    let key = |p: &[f32; 3]| -> [i64; 3] {
+        std::array::from_fn(|a| ((p[a] - lo[a]) / cell).floor() as i64)
+    };
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    for (i, p) in positions.iter().enumerate() {
+        grid.entry(key(p)).or_default().push(i as u32);
+    }
+    let cells_across = ((diagonal / cell).ceil() as i64).max(1) + 1;
+    positions
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let centre = key(p);
+            let mut best: Vec<f32> = Vec::with_capacity(k + 1); // squared, ascending
+            let mut shell = 0i64;
+            loop {
+                for dx in -shell..=shell {
+                    for dy in -shell..=shell {
+                        for dz in -shell..=shell {
+                            if dx.abs().max(dy.abs()).max(dz.abs()) != shell {
+                                continue;
+                            }
+                            let c = [centre[0] + dx, centre[1] + dy, centre[2] + dz];
+                            for &j in grid.get(&c).map_or(&[][..], |v| v.as_slice()) {
+                                if j as usize == i {
+                                    continue;
+                                }
+                                let q = positions[j as usize];
+                                let d2 = (0..3).map(|a| (q[a] - p[a]).powi(2)).sum::<f32>();
+                                let at = best.partition_point(|&b| b <= d2);
+                                if at < k {
+                                    best.insert(at, d2);
+                                    best.truncate(k);
+                                }
+                            }
+                        }
+                    }
+                }
+                // Every point outside the searched cube is at least `shell · cell` away.
+                let reach = shell as f32 * cell;
+                let done =
+                    best.len() == k.min(n - 1) && best.last().is_some_and(|&b| b <= reach * reach);
+                if done || shell > cells_across {
+                    break;
+                }
+                shell += 1;
+            }
+            let mean = best.iter().sum::<f32>() / best.len().max(1) as f32;
+            mean.sqrt().max(floor)
+        })
+        .collect()
+}
+
+/// Back-projects every `stride`-th pixel with finite positive depth (camera z, world units).
+pub fn back_project(
+    camera: &Camera,
+    depth: &[f32],
+    srgb: &[f32],
+    stride: usize,
+    points: &mut InitPoints,
+) {
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let m = camera.world_to_camera;
+    for y in (0..h).step_by(stride) {
+        for x in (0..w).step_by(stride) {
+            let d = depth[y * w + x];
+            if !(d.is_finite() && d > 0.0) {
+                continue;
+            }
+            let c = [
+                d * (x as f32 + 0.5 - camera.cx) / camera.fx,
+                d * (y as f32 + 0.5 - camera.cy) / camera.fy,
+                d,
+            ];
+            // World = Rᵀ (c − t).
+            points.positions.push(std::array::from_fn(|j| {
+                (0..3).map(|i| m[i][j] * (c[i] - m[i][3])).sum()
+            }));
+            let p = 3 * (y * w + x);
+            points.colours.push([srgb[p], srgb[p + 1], srgb[p + 2]]);
+            points.sigmas.push(0.5 * stride as f32 * d / camera.fx);
+        }
+    }
+}
+
+/// Uniform random points with random colours in the box spanned by the cameras and the points
+/// 1 m in front of each (3DGS's initialisation where no SfM points exist).
+pub fn random_points(cameras: &[Camera], count: usize, seed: u64) -> InitPoints {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for c in cameras {
+        let p = c.position();
+        let m = c.world_to_camera;
+        let ahead: [f32; 3] = std::array::from_fn(|k| p[k] + m[2][k]);
+        for q in [p, ahead] {
+            for k in 0..3 {
+                lo[k] = lo[k].min(q[k]);
+                hi[k] = hi[k].max(q[k]);
+            }
+        }
+    }
+    let mut rng = Rng(seed ^ 0x4A4D_0000);
+    let diagonal = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f32>().sqrt();
+    let sigma = 0.5 * diagonal / (count.max(1) as f32).cbrt();
+    let mut points = InitPoints::default();
+    for _ in 0..count {
+        points.positions.push(std::array::from_fn(|k| {
+            rng.range(lo[k] as f64, hi[k] as f64) as f32
+        }));
+        points
+            .colours
+            .push(std::array::from_fn(|_| rng.next() as f32));
+        points.sigmas.push(sigma);
+    }
+    points
+}
