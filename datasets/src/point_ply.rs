@@ -178,9 +178,9 @@ fn parse_header(
                 };
                 let property = match rest {
                     ["list", count, item, name] => {
-                        Property::List((*name).to_owned(), scalar(*count)?, scalar(*item)?)
+                        Property::List((*name).to_owned(), scalar(count)?, scalar(item)?)
                     }
-                    [ty, name] => Property::Scalar((*name).to_owned(), scalar(*ty)?),
+                    [ty, name] => Property::Scalar((*name).to_owned(), scalar(ty)?),
                     _ => {
                         return Err(bad(
                             line_number,

@@ -165,11 +165,11 @@ fn view(truth: &ViewTruth, name: String, store: &mut ImageStore, device: &Device
     let srgb: Vec<f32> = r.color.iter().flat_map(|c| c.map(linear_to_srgb)).collect();
     let body = body_label(0);
     let mask: Vec<f32> = r.label.iter().map(|&l| f32::from(l == body)).collect();
-    let key = store.push(ImageSource::Memory(Frame {
+    let key = store.push(ImageSource::Memory(Box::new(Frame {
         image: Tensor::from_data(TensorData::new(srgb, [h, w, 3]), device),
         person: Some(Tensor::from_data(TensorData::new(mask, [h, w]), device)),
         valid: None,
-    }));
+    })));
     AvatarView {
         name,
         frame: truth.frame,

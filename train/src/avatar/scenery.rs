@@ -36,7 +36,7 @@ pub fn decide(config: &AvatarConfig, capture: &AvatarCapture) -> (bool, String) 
         (Some(false), _) => (false, "no background node (scenery = false)".into()),
         (None, Some(from)) if from.contains("sparse") => (
             true,
-            format!("background node: the capture has {from}"),
+            "background node: the capture has sparse points of its surroundings".into(),
         ),
         (None, _) => (
             false,

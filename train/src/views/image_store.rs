@@ -183,7 +183,7 @@ pub fn box_filter(values: &[f32], w: usize, h: usize, c: usize, f: usize) -> Vec
 
 /// Where a view's pixels come from.
 pub enum ImageSource {
-    Memory(Frame),
+    Memory(Box<Frame>),
     File(Box<FileImage>),
 }
 
@@ -240,7 +240,7 @@ impl ImageStore {
     /// The frame of view `key`, decoding it if it is not cached.
     pub fn frame(&self, key: usize) -> Result<Frame, DataError> {
         let file = match &self.sources[key] {
-            ImageSource::Memory(frame) => return Ok(frame.clone()),
+            ImageSource::Memory(frame) => return Ok(frame.as_ref().clone()),
             ImageSource::File(file) => file,
         };
         {

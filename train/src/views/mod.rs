@@ -222,11 +222,11 @@ fn synthetic(config: &DataConfig, device: &Device) -> Result<ViewSet, DataError>
             );
         }
         let image = Tensor::from_data(TensorData::new(srgb, [r.height, r.width, 3]), device);
-        let key = store.push(ImageSource::Memory(Frame {
+        let key = store.push(ImageSource::Memory(Box::new(Frame {
             image,
             person: None,
             valid: None,
-        }));
+        })));
         views.push(View {
             name: format!("view_{k:03}"),
             camera: truth.camera,

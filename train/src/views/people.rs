@@ -42,11 +42,11 @@ pub fn rest_root(model: &BodyModel, betas: &[f64]) -> [f64; 3] {
         if weight == 0.0 {
             continue;
         }
-        for a in 0..3 {
+        for (a, axis) in root.iter_mut().enumerate() {
             let offset: f64 = (0..s.min(betas.len()))
                 .map(|j| model.shape_dirs[(k * 3 + a) * s + j] as f64 * betas[j])
                 .sum();
-            root[a] += weight * (model.template[k * 3 + a] as f64 + offset);
+            *axis += weight * (model.template[k * 3 + a] as f64 + offset);
         }
     }
     root

@@ -202,8 +202,7 @@ fn bad_captures_are_named() {
         (person_capture(5, 5, 24), 1, "person 1"),
     ] {
         let error = person_sequence(&dataset, person, model, false)
-            .err()
-            .expect("refused")
+            .expect_err("refused")
             .to_string();
         assert!(error.contains(expected), "{error}");
         assert!(error.contains("CoreView_000"), "{error}");
@@ -227,4 +226,64 @@ fn bad_captures_are_named() {
         .expect("refused")
         .to_string();
     assert!(error.contains("pose track"), "{error}");
+}
+
+#[test]
+fn a_capture_with_a_background_node_resumes_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let device = Device::flex();
+    neuman_fixture(dir.path(), false);
+    let config = avatar_config(dir.path());
+    let mut whole = AvatarTrainer::new(config.clone(), &device).unwrap();
+    assert!(whole.scenery.is_some(), "{:?}", whole.decisions());
+    for _ in 0..6 {
+        whole.step().unwrap();
+    }
+    let mut first = AvatarTrainer::new(config.clone(), &device).unwrap();
+    for _ in 0..3 {
+        first.step().unwrap();
+    }
+    let mut checkpoint = first.checkpoint();
+    checkpoint.put_meta("step", 3);
+    let mut second = AvatarTrainer::resume(config.clone(), &checkpoint, &device).unwrap();
+    for _ in 0..3 {
+        second.step().unwrap();
+    }
+    let (a, b) = (whole.checkpoint(), second.checkpoint());
+    assert!(a.tensors.contains_key("background.splats.means"));
+    assert_eq!(
+        a.tensors.keys().collect::<Vec<_>>(),
+        b.tensors.keys().collect::<Vec<_>>()
+    );
+    for (name, value) in &a.tensors {
+        assert_eq!(value, &b.tensors[name], "{name} differs after resuming");
+    }
+    let evaluation = whole.evaluate(None).unwrap();
+    assert!(evaluation.extra.contains_key("novel_pose_scene_psnr"));
+    // Forced off, the same capture has no background node.
+    let mut off = config;
+    off.scenery = Some(false);
+    assert!(AvatarTrainer::new(off, &device).unwrap().scenery.is_none());
+}
+
+#[test]
+fn a_body_model_file_skins_the_avatar() {
+    let dir = tempfile::tempdir().unwrap();
+    let device = Device::flex();
+    zju_fixture(dir.path());
+    // The built-in body written in SMPL's `.npz` key layout: read back as an SMPL-family file.
+    let model = dir.path().join("model.npz");
+    splatzoo_models::body::save_npz(&builtin_body().model, &model).unwrap();
+    let mut config = avatar_config(dir.path());
+    config.body_model = Some(model);
+    let mut trainer = AvatarTrainer::new(config.clone(), &device).unwrap();
+    let decisions = trainer.decisions().join("\n");
+    assert!(decisions.contains("shape coefficients kept"), "{decisions}");
+    assert!(trainer.step().unwrap().loss.is_finite());
+    config.body_model = Some(dir.path().join("missing.npz"));
+    let error = AvatarTrainer::new(config, &device)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(error.contains("missing.npz"), "{error}");
 }
