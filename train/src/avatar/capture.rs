@@ -7,7 +7,8 @@
 //! `data.train_cameras` train (every camera when it is empty); the others, at every
 //! `novel_view_every`-th training frame, are the novel views. Frames where the person is not
 //! valid are not used. The prior is the capture's pose track with its world placement folded
-//! in ([`crate::views::people`]); there is no true motion to score against.
+//! in ([`crate::views::people`]). Only a synthetic export has a true motion to score the
+//! refined track against (its true track, named without the prior's `_prior`).
 
 use super::data::{AvatarCapture, AvatarDataConfig, AvatarView};
 use crate::error::TrainError;
@@ -15,7 +16,7 @@ use crate::views::dataset::{Loaded, file_image, first_pass, load_capture};
 use crate::views::people::{person_sequence, scale_camera_world};
 use crate::views::{ImageSource, ImageStore, InitPoints, MaskRole};
 use burn::tensor::Device;
-use splatzoo_datasets::formats::Dataset;
+use splatzoo_datasets::formats::{Dataset, Format};
 use splatzoo_models::body::{BodyKind, BodyModel};
 use std::collections::BTreeSet;
 
@@ -59,7 +60,9 @@ pub fn load(
         .ok_or_else(|| TrainError::Config("data.path is not set".into()))?;
     let Loaded { dataset, downscale } =
         load_capture(path, config.format.as_deref(), config.downscale)?;
-    let use_betas = model.kind != BodyKind::Builtin;
+    // SMPL fits' betas mean SMPL's shape directions; a synthetic export's were made for the
+    // built-in body.
+    let use_betas = model.kind != BodyKind::Builtin || dataset.format == Format::Synthetic;
     let person = person_sequence(&dataset, config.person, model, use_betas)?;
     let mut decisions = vec![format!(
         "{:?} capture: {} views, {} frames, person {} of {}",
@@ -70,7 +73,7 @@ pub fn load(
         dataset.people.len()
     )];
     decisions.push(if use_betas {
-        "the track's shape coefficients kept (a body model file was given)".into()
+        "the track's shape coefficients kept (they are the body model's own)".into()
     } else {
         "the built-in body from its rest shape (the track's SMPL betas do not apply), shape refined"
             .into()
@@ -179,6 +182,17 @@ pub fn load(
         points.sigmas.iter_mut().for_each(|v| *v *= s);
         points
     };
+    // A synthetic export carries the true motion beside the prior: score the refined track.
+    let truth = match dataset.people[config.person].person.strip_suffix("_prior") {
+        Some(stem) => match dataset.people.iter().position(|p| p.person == stem) {
+            Some(k) => Some(person_sequence(&dataset, k, model, use_betas)?.sequence),
+            None => None,
+        },
+        None => None,
+    };
+    if truth.is_some() {
+        decisions.push("the capture's true motion scores the refined track (MPJPE)".into());
+    }
     Ok(AvatarCapture {
         scenery_source: (!scenery_points.is_empty()).then_some("the capture's sparse points"),
         scenery_points,
@@ -187,7 +201,7 @@ pub fn load(
         novel_view,
         novel_pose,
         prior: person.sequence,
-        truth: None,
+        truth,
         trained,
         fps: 30.0,
         decisions,

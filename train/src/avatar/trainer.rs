@@ -360,6 +360,9 @@ impl Method for AvatarTrainer {
             ("plain_template/novel_view", &self.capture.novel_view),
             ("plain_template/novel_pose", &self.capture.novel_pose),
         ] {
+            if views.is_empty() {
+                continue;
+            }
             let pairs = views
                 .iter()
                 .map(|v| {
@@ -450,8 +453,17 @@ impl Method for AvatarTrainer {
         let view = self.score(&self.capture.novel_view, lpips)?;
         let novel_pose = self.score(&self.capture.novel_pose, lpips)?;
         let device = self.background.device();
-        let mut evaluation = Evaluation::new(self.step, view.human)
-            .with("scores", "novel view, human region")
+        // The headline: novel views where the capture has them, else novel poses.
+        let (headline, what) = if self.capture.novel_view.is_empty() {
+            (
+                novel_pose.human,
+                "novel pose, human region (the capture has no novel views)",
+            )
+        } else {
+            (view.human, "novel view, human region")
+        };
+        let mut evaluation = Evaluation::new(self.step, headline)
+            .with("scores", what)
             .with("human_region", HUMAN_REGION)
             .with("novel_view_full_psnr", view.full.psnr)
             .with("novel_view_full_ssim", view.full.ssim)
