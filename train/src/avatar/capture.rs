@@ -12,11 +12,12 @@
 
 use super::data::{AvatarCapture, AvatarDataConfig, AvatarView};
 use crate::error::TrainError;
-use crate::views::dataset::{Loaded, file_image, first_pass, load_capture};
+use crate::views::dataset::{Loaded, file_image, first_pass, load_capture, read_depth};
+use crate::views::init_points::back_project;
 use crate::views::people::{person_sequence, scale_camera_world};
 use crate::views::{ImageSource, ImageStore, InitPoints, MaskRole};
-use burn::tensor::Device;
-use splatzoo_datasets::formats::{Dataset, Format};
+use burn::tensor::{Device, Tensor};
+use splatzoo_datasets::formats::{Dataset, Format, ViewRecord};
 use splatzoo_models::body::{BodyKind, BodyModel};
 use std::collections::BTreeSet;
 
@@ -119,6 +120,8 @@ pub fn load(
         .filter(|(k, _)| k % config.novel_view_every == 0)
         .map(|(_, f)| f)
         .collect();
+    // Training views with a depth map (for a background node's start).
+    let mut with_depth = Vec::new();
     for record in &dataset.views {
         let f = record.frame;
         if !person.valid[f] {
@@ -158,6 +161,9 @@ pub fn load(
             camera: scale_camera_world(&camera, person.world_scale),
             key: store.push(ImageSource::File(Box::new(file))),
         });
+        if !held[f] && trains(&record.camera_name) && record.depth.is_some() {
+            with_depth.push((train.len() - 1, record));
+        }
     }
     if train.is_empty() {
         return Err(TrainError::Config(format!(
@@ -175,12 +181,30 @@ pub fn load(
     let trained: Vec<bool> = (0..person.valid.len())
         .map(|f| trained_frames.contains(&f))
         .collect();
-    let scenery_points = {
+    let (scenery_points, scenery_source) = if !dataset.points.is_empty() {
         let mut points = InitPoints::from_sparse(&dataset.points);
         let s = person.world_scale as f32;
         points.positions.iter_mut().flatten().for_each(|v| *v *= s);
         points.sigmas.iter_mut().for_each(|v| *v *= s);
-        points
+        (points, Some("the capture's sparse points"))
+    } else {
+        let mut points = InitPoints::default();
+        // Every fourth depth map, every 8th pixel, the person left out.
+        for &(k, record) in with_depth.iter().step_by(4) {
+            let view = &train[k];
+            let frame = store.frame(view.key)?;
+            let pixels = (&frame.image, frame.person.as_ref());
+            depth_outside_person(
+                record,
+                view,
+                pixels,
+                downscale,
+                person.world_scale,
+                &mut points,
+            )?;
+        }
+        let source = (!points.is_empty()).then_some("the capture's depth maps outside the person");
+        (points, source)
     };
     // A synthetic export carries the true motion beside the prior: score the refined track.
     let truth = match dataset.people[config.person].person.strip_suffix("_prior") {
@@ -194,7 +218,7 @@ pub fn load(
         decisions.push("the capture's true motion scores the refined track (MPJPE)".into());
     }
     Ok(AvatarCapture {
-        scenery_source: (!scenery_points.is_empty()).then_some("the capture's sparse points"),
+        scenery_source,
         scenery_points,
         store,
         train,
@@ -206,4 +230,37 @@ pub fn load(
         fps: 30.0,
         decisions,
     })
+}
+
+/// Back-projects a training view's depth map (every 8th pixel, the person's pixels left out)
+/// into `points`, in the world scaled by `world_scale`.
+fn depth_outside_person(
+    record: &ViewRecord,
+    view: &AvatarView,
+    (image, person): (&Tensor<3>, Option<&Tensor<2>>),
+    downscale: u32,
+    world_scale: f64,
+    points: &mut InitPoints,
+) -> Result<(), TrainError> {
+    let Some(path) = &record.depth else {
+        return Ok(());
+    };
+    let (w, h) = (record.camera.width as usize, record.camera.height as usize);
+    let full = read_depth(path, w, h)?;
+    let f = downscale as usize;
+    let (ow, oh) = (w / f, h / f);
+    let person = person.map(crate::host_f32);
+    let depth: Vec<f32> = (0..oh * ow)
+        .map(|i| {
+            let d = full[((i / ow) * f + f / 2) * w + (i % ow) * f + f / 2];
+            let on_person = person.as_ref().is_some_and(|p| p[i] > 0.5);
+            if on_person {
+                f32::NAN
+            } else {
+                d * world_scale as f32
+            }
+        })
+        .collect();
+    back_project(&view.camera, &depth, &crate::host_f32(image), 8, points);
+    Ok(())
 }
