@@ -17,7 +17,7 @@ use crate::lpips::Lpips;
 use crate::optimizer::LearningRates;
 use crate::ply::write_ply;
 use crate::scene::{FrameQuery, GaussianNode, SceneGraph};
-use crate::views::{DataConfig, Frame, ViewSet};
+use crate::views::{CaptureArgs, DataConfig, Frame, ViewSet};
 use burn::tensor::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render};
@@ -86,13 +86,8 @@ impl MethodConfig for StaticConfig {
 /// `train-3dgs`'s shorthands.
 #[derive(clap::Args, Debug)]
 pub struct StaticArgs {
-    /// A capture folder (COLMAP, nerfstudio, NeuMan, ZJU-MoCap, PeopleSnapshot, GHG,
-    /// drivestudio, a `synth` export) instead of the synthetic scene.
-    #[arg(long)]
-    pub data: Option<PathBuf>,
-    /// The capture's format (detected from its files when absent).
-    #[arg(long, value_enum)]
-    pub format: Option<splatzoo_datasets::formats::Format>,
+    #[command(flatten)]
+    pub capture: CaptureArgs,
     /// Shorthand for `--set data.size=N` (synthetic image side).
     #[arg(long)]
     pub size: Option<u32>,
@@ -220,19 +215,10 @@ impl Method for StaticTrainer {
 
     fn overrides(args: &StaticArgs) -> Vec<String> {
         let mut sets = Vec::new();
-        if let Some(path) = &args.data {
+        if args.capture.data.is_some() {
             sets.push("data.source=\"dataset\"".into());
-            sets.push(format!(
-                "data.path={}",
-                toml::Value::from(path.display().to_string())
-            ));
         }
-        if let Some(format) = args.format {
-            let name = clap::ValueEnum::to_possible_value(&format)
-                .map(|v| v.get_name().to_owned())
-                .unwrap_or_default();
-            sets.push(format!("data.format={}", toml::Value::from(name)));
-        }
+        sets.extend(args.capture.overrides());
         if let Some(size) = args.size {
             sets.push(format!("data.size={size}"));
         }

@@ -20,6 +20,7 @@ use crate::ply::write_ply;
 use crate::scene::{
     FrameContext, FrameQuery, GaussianNode, SceneNode, SkinnedGaussianNode, StepEnd, concatenate,
 };
+use crate::views::CaptureArgs;
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::pose_sequence::{PoseSequence, write_pose_sequence};
 use splatzoo_models::body::BodyModel;
@@ -43,12 +44,9 @@ pub struct AvatarArgs {
     /// `--set data.preset=…`).
     #[arg(long, value_enum)]
     pub preset: Option<super::data::AvatarPreset>,
-    /// A capture folder with person masks and a pose track, instead of the synthetic preset.
-    #[arg(long)]
-    pub data: Option<std::path::PathBuf>,
-    /// The capture's format (detected from its files when absent).
-    #[arg(long, value_enum)]
-    pub format: Option<splatzoo_datasets::formats::Format>,
+    /// A capture with person masks and a pose track, instead of the synthetic preset.
+    #[command(flatten)]
+    pub capture: CaptureArgs,
     /// An SMPL, SMPL-H or SMPL-X model file (`.npz` or `.pkl`) instead of the built-in body.
     #[arg(long)]
     pub body_model: Option<std::path::PathBuf>,
@@ -288,18 +286,7 @@ impl Method for AvatarTrainer {
             let name = format!("{preset:?}").to_lowercase();
             sets.push(format!("data.preset=\"{name}\""));
         }
-        if let Some(path) = &args.data {
-            sets.push(format!(
-                "data.path={}",
-                toml::Value::from(path.display().to_string())
-            ));
-        }
-        if let Some(format) = args.format {
-            let name = clap::ValueEnum::to_possible_value(&format)
-                .map(|v| v.get_name().to_owned())
-                .unwrap_or_default();
-            sets.push(format!("data.format={}", toml::Value::from(name)));
-        }
+        sets.extend(args.capture.overrides());
         if let Some(path) = &args.body_model {
             sets.push(format!(
                 "body_model={}",

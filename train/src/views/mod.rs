@@ -84,6 +84,36 @@ impl Default for DataConfig {
     }
 }
 
+/// `--data` and `--format`, as every trainer that reads captures takes them.
+#[derive(clap::Args, Debug)]
+pub struct CaptureArgs {
+    /// A capture folder (COLMAP, nerfstudio, NeuMan, ZJU-MoCap, PeopleSnapshot, GHG,
+    /// drivestudio, a `synth` export) instead of the synthetic default.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// The capture's format (detected from its files when absent).
+    #[arg(long, value_enum)]
+    pub format: Option<splatzoo_datasets::formats::Format>,
+}
+
+impl CaptureArgs {
+    /// The `--set` lines they stand for: `data.path` and `data.format`.
+    pub fn overrides(&self) -> Vec<String> {
+        let mut sets = Vec::new();
+        if let Some(path) = &self.data {
+            let path = toml::Value::from(path.display().to_string());
+            sets.push(format!("data.path={path}"));
+        }
+        if let Some(format) = self.format {
+            let name = clap::ValueEnum::to_possible_value(&format)
+                .map(|v| v.get_name().to_owned())
+                .unwrap_or_default();
+            sets.push(format!("data.format={}", toml::Value::from(name)));
+        }
+        sets
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum DataError {
     #[error(transparent)]
