@@ -12,7 +12,7 @@
 
 use super::data::{AvatarCapture, AvatarDataConfig, AvatarView};
 use crate::error::TrainError;
-use crate::views::dataset::{Loaded, file_image, first_pass, load_capture, read_depth};
+use crate::views::dataset::{Loaded, file_image, first_pass, load_capture, training_depth};
 use crate::views::init_points::back_project;
 use crate::views::people::{person_sequence, scale_camera_world};
 use crate::views::{ImageSource, ImageStore, InitPoints, MaskRole};
@@ -177,7 +177,7 @@ pub fn load(
         .chain(&novel_pose)
         .map(|v| v.key)
         .collect();
-    first_pass(&store, &keys, device, |_, _| {})?;
+    first_pass(&store, &keys, device)?;
     let trained: Vec<bool> = (0..person.valid.len())
         .map(|f| trained_frames.contains(&f))
         .collect();
@@ -242,17 +242,14 @@ fn depth_outside_person(
     world_scale: f64,
     points: &mut InitPoints,
 ) -> Result<(), TrainError> {
-    let Some(path) = &record.depth else {
+    let Some(full) = training_depth(record, downscale)? else {
         return Ok(());
     };
-    let (w, h) = (record.camera.width as usize, record.camera.height as usize);
-    let full = read_depth(path, w, h)?;
-    let f = downscale as usize;
-    let (ow, oh) = (w / f, h / f);
     let person = person.map(crate::host_f32);
-    let depth: Vec<f32> = (0..oh * ow)
-        .map(|i| {
-            let d = full[((i / ow) * f + f / 2) * w + (i % ow) * f + f / 2];
+    let depth: Vec<f32> = full
+        .iter()
+        .enumerate()
+        .map(|(i, &d)| {
             let on_person = person.as_ref().is_some_and(|p| p[i] > 0.5);
             if on_person {
                 f32::NAN

@@ -133,14 +133,8 @@ fn view_name(record: &ViewRecord, index: usize) -> String {
 }
 
 /// Decodes every source once, in parallel batches, into the store's cache (as far as its
-/// budget goes), calling `each` with every decoded frame in order. The first failure is
-/// returned, naming its file.
-pub fn first_pass(
-    store: &ImageStore,
-    keys: &[usize],
-    device: &Device,
-    mut each: impl FnMut(usize, &super::image_store::HostFrame),
-) -> Result<(), DataError> {
+/// budget goes). The first failure is returned, naming its file.
+pub fn first_pass(store: &ImageStore, keys: &[usize], device: &Device) -> Result<(), DataError> {
     let batch = rayon::current_num_threads().max(1) * 2;
     for chunk in keys.chunks(batch) {
         let decoded: Vec<_> = chunk
@@ -152,7 +146,6 @@ pub fn first_pass(
             .collect();
         for (&key, frame) in chunk.iter().zip(decoded) {
             if let Some(frame) = frame? {
-                each(key, &frame);
                 store.insert(key, frame.upload(device));
             }
         }
@@ -247,7 +240,7 @@ pub fn static_views(
     let train: Vec<View> = train_ids.iter().map(|&i| make(i)).collect();
     let test: Vec<View> = test_ids.iter().map(|&i| make(i)).collect();
     let keys: Vec<usize> = train.iter().chain(&test).map(|v| v.key).collect();
-    first_pass(&store, &keys, device, |_, _| {})?;
+    first_pass(&store, &keys, device)?;
     let cameras: Vec<Camera> = train.iter().chain(&test).map(|v| v.camera).collect();
     let extent = camera_extent(&cameras);
     let points = if !dataset.points.is_empty() {
@@ -305,24 +298,35 @@ fn depth_points(
     points: &mut InitPoints,
 ) -> Result<(), DataError> {
     for (&index, view) in train_ids.iter().zip(train) {
-        let record = &dataset.views[index];
-        let Some(path) = &record.depth else { continue };
-        if is_distorted(&record.distortion) {
+        let Some(depth) = training_depth(&dataset.views[index], downscale)? else {
             continue;
-        }
-        let (w, h) = (record.camera.width as usize, record.camera.height as usize);
-        let depth = read_depth(path, w, h)?;
-        let f = downscale as usize;
-        let (ow, oh) = (w / f, h / f);
-        // Subsampled, not averaged (averaging mixes surfaces at edges).
-        let depth: Vec<f32> = (0..oh * ow)
-            .map(|i| depth[((i / ow) * f + f / 2) * w + (i % ow) * f + f / 2])
-            .collect();
+        };
         let frame = store.frame(view.key)?;
         let srgb = crate::host_f32(&frame.image);
         back_project(&view.camera, &depth, &srgb, stride, points);
     }
     Ok(())
+}
+
+/// A view's depth map at training resolution (`1/downscale`; subsampled, not averaged, since
+/// averaging mixes surfaces at edges), in the capture's world units; `None` where the view has
+/// none or its lens distorts (the map is then not on the pinhole grid).
+pub fn training_depth(record: &ViewRecord, downscale: u32) -> Result<Option<Vec<f32>>, DataError> {
+    let Some(path) = &record.depth else {
+        return Ok(None);
+    };
+    if is_distorted(&record.distortion) {
+        return Ok(None);
+    }
+    let (w, h) = (record.camera.width as usize, record.camera.height as usize);
+    let depth = read_depth(path, w, h)?;
+    let f = downscale as usize;
+    let (ow, oh) = (w / f, h / f);
+    Ok(Some(
+        (0..oh * ow)
+            .map(|i| depth[((i / ow) * f + f / 2) * w + (i % ow) * f + f / 2])
+            .collect(),
+    ))
 }
 
 /// A depth map of `w × h` in metres (non-finite where there is none).

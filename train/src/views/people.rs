@@ -195,7 +195,7 @@ pub fn person_sequence(
     let (first_pose, _) = completed_pose(first_frame, model.joint_count());
     let track_joints = first_pose.len() / 3 + 1;
     let mut rested = false;
-    let (s, shape_count) = (model.shape_count(), model.shape_count());
+    let s = model.shape_count();
     let mut poses = Vec::with_capacity(frame_count * 3 * track_joints);
     let mut translations = Vec::with_capacity(frame_count * 3);
     let mut betas_out = Vec::with_capacity(frame_count * s);
@@ -245,7 +245,7 @@ pub fn person_sequence(
         poses,
         translations,
         betas: betas_out,
-        shape_count,
+        shape_count: s,
         fps: None,
     }
     .for_model(model.joint_count(), model.shape_count(), root)?;
