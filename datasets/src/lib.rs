@@ -5,14 +5,16 @@
 //! `synth` command), SMPL-layout pose sequences in the AMASS `.npz` layout ([`pose_sequence`]),
 //! nerfstudio `transforms.json` ([`nerfstudio`]) and the PLY point clouds it names
 //! ([`point_ply`]), public dataset formats ([`formats`]) and tiny datasets written in each
-//! one's layout for tests ([`fixtures`]), OBJ and PNG writers ([`obj`], [`image_io`]) and posing
-//! a body model for inspection ([`posing`], the `pose-body` command).
+//! one's layout for tests ([`fixtures`]), OBJ and PNG writers ([`obj`], [`image_io`]), posing
+//! a body model for inspection ([`posing`], the `pose-body` command) and binary-mask operations
+//! for APF-GS's decoupling of accessories from the body ([`masks`]).
 
 pub mod error;
 pub mod files;
 pub mod fixtures;
 pub mod formats;
 pub mod image_io;
+pub mod masks;
 pub mod nerfstudio;
 pub mod obj;
 pub mod point_ply;

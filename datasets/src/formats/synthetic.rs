@@ -2,9 +2,9 @@
 //! into the common types, so generated scenes and public datasets reach a method the same way:
 //! views from `transforms.json` (`images/<frame>_<track>.png`, already in our conventions),
 //! human masks `masks/human/…png` (non-zero = person; accessory and coarse masks beside them),
-//! and per person the true and the
+//! and per tracked person the true and the
 //! perturbed pose tracks (`people/person_KK_{truth,prior}.npz`, AMASS layout: SMPL `transl`,
-//! world frame).
+//! world frame; an untracked passer-by has none).
 
 use super::{BodyFrame, Dataset, Format, MaskConvention, PoseTrack, Similarity};
 use crate::DatasetError;

@@ -1,11 +1,13 @@
-//! Accessories carried by the synthetic people, each its own mesh rigidly attached to one joint:
-//! a backpack to the upper spine, a suitcase or a handbag to the left wrist (the right hand
+//! Accessories carried by the synthetic people, each its own mesh attached to one joint: a
+//! backpack to the upper spine, a suitcase or a handbag to the left wrist (the right hand
 //! waves). They are what APF-GS splits into child nodes of the human, and what its coarse
 //! (human ∪ accessory) masks fail to separate.
 //!
 //! Each accessory is modelled in the world around the body in the relaxed carrying pose (arms
 //! lowered; see [`crate::synth::motion::relaxed_pose`]) and stored in its joint's frame, so at
-//! any frame `x = R_joint · x_local + p_joint`.
+//! any frame `x = R_joint · x_local + p_joint`. The backpack and the suitcase are rigid in that
+//! frame; the handbag is not: it swings as a pendulum about its grip ([`Swing`]), so at time `t`
+//! `x_local = R_swing(t) · (x_rest − grip) + grip`.
 
 use super::mesh::MeshBuilder;
 use crate::posing::PosedFrame;
@@ -24,13 +26,35 @@ pub enum AccessoryKind {
     Handbag,
 }
 
+/// A pendulum swing about the grip: `amplitude · sin(2π t / period)` radians about `axis`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Swing {
+    /// Radians.
+    pub amplitude: f64,
+    /// Seconds.
+    pub period: f64,
+    /// Unit axis in the joint's frame: across the walking direction (the body's left-right).
+    pub axis: [f64; 3],
+}
+
+/// The handbag's swing: ±15° …
+const HANDBAG_SWING_DEGREES: f64 = 15.0;
+/// … with a 1.2 s period (about a 36 cm pendulum's).
+const HANDBAG_SWING_PERIOD: f64 = 1.2;
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Accessory {
     pub kind: AccessoryKind,
     /// The joint it is attached to.
     pub joint: usize,
-    /// Mesh in the joint's frame (positions), with colours per vertex.
+    /// Mesh in the joint's frame (positions), with colours per vertex; at rest for a swinging
+    /// accessory.
     pub mesh: MeshBuilder,
+    /// Where it is held, in the joint's frame: the bags' grip, the backpack's carrying loop.
+    /// A swing turns about it.
+    pub grip: [f64; 3],
+    /// `None` for a rigid accessory.
+    pub swing: Option<Swing>,
 }
 
 fn mat(m: &[[f32; 3]; 3]) -> DMat3 {
@@ -53,7 +77,7 @@ impl Accessory {
         let dark = colour.map(|c| c * 0.45);
         let mut world = MeshBuilder::default();
         let joints: Vec<DVec3> = reference.joints.iter().map(|&p| vec(p)).collect();
-        let joint = match kind {
+        let (joint, grip) = match kind {
             AccessoryKind::Backpack => {
                 // Against the back between the lower and upper spine joints.
                 let (low, high) = (joints[6].y - 0.05, joints[9].y + 0.08);
@@ -67,7 +91,8 @@ impl Accessory {
                     .map(|(p, _)| p[2] as f64)
                     .fold(f64::INFINITY, f64::min);
                 let (w, h, d) = (0.30, 0.42, 0.15);
-                let centre = DVec3::new(joints[9].x, 0.5 * (low + high), back - 0.005 - 0.5 * d);
+                // 2 cm off the skin: clear of a jacket's folds ([`super::clothing`], ≤ 15 mm).
+                let centre = DVec3::new(joints[9].x, 0.5 * (low + high), back - 0.02 - 0.5 * d);
                 world.oriented_box(
                     centre,
                     DVec3::new(0.5 * w, 0.5 * h, 0.5 * d),
@@ -81,13 +106,14 @@ impl Accessory {
                     DMat3::IDENTITY,
                     dark,
                 );
+                let loop_centre = centre + DVec3::new(0.0, 0.5 * h + 0.02, 0.0);
                 world.oriented_box(
-                    centre + DVec3::new(0.0, 0.5 * h + 0.02, 0.0),
+                    loop_centre,
                     DVec3::new(0.05, 0.02, 0.015),
                     DMat3::IDENTITY,
                     dark,
                 );
-                BACKPACK_JOINT
+                (BACKPACK_JOINT, loop_centre)
             }
             AccessoryKind::Suitcase | AccessoryKind::Handbag => {
                 let wrist = joints[CARRY_JOINT];
@@ -119,13 +145,14 @@ impl Accessory {
                         dark,
                     );
                 }
+                let bar = DVec3::new(centre.x, grip.y, grip.z);
                 world.oriented_box(
-                    DVec3::new(centre.x, grip.y, grip.z),
+                    bar,
                     DVec3::new(post, post, 0.06 + post),
                     DMat3::IDENTITY,
                     dark,
                 );
-                CARRY_JOINT
+                (CARRY_JOINT, bar)
             }
         };
         // World (carrying pose) → joint frame.
@@ -134,21 +161,57 @@ impl Accessory {
         for p in &mut world.positions {
             *p = (inverse * (vec(*p) - origin)).as_vec3().to_array();
         }
+        // The handbag swings forwards and backwards: about the body's left-right axis (x in the
+        // carrying pose, which faces +z).
+        let swing = (kind == AccessoryKind::Handbag).then(|| Swing {
+            amplitude: HANDBAG_SWING_DEGREES.to_radians(),
+            period: HANDBAG_SWING_PERIOD,
+            axis: (inverse * DVec3::X).normalize().to_array(),
+        });
         Self {
             kind,
             joint,
             mesh: world,
+            grip: (inverse * (grip - origin)).to_array(),
+            swing,
         }
     }
 
-    /// World positions of the mesh in `frame`.
-    pub fn place(&self, frame: &PosedFrame) -> Vec<[f32; 3]> {
+    /// The swing's angle at `time` seconds (0 for a rigid accessory).
+    pub fn swing_angle(&self, time: f64) -> f64 {
+        self.swing.map_or(0.0, |s| {
+            s.amplitude * (std::f64::consts::TAU * time / s.period).sin()
+        })
+    }
+
+    /// World positions of the mesh in `frame`, at `time` seconds (which only a swing reads).
+    pub fn place(&self, frame: &PosedFrame, time: f64) -> Vec<[f32; 3]> {
         let rotation = mat(&frame.joint_rotations[self.joint]);
         let origin = vec(frame.joints[self.joint]);
-        self.mesh
-            .positions
-            .iter()
-            .map(|&p| (rotation * vec(p) + origin).as_vec3().to_array())
+        let local: Vec<DVec3> = match self.swing {
+            None => self.mesh.positions.iter().map(|&p| vec(p)).collect(),
+            Some(swing) => {
+                let angle = self.swing_angle(time);
+                let turn = DMat3::from_axis_angle(DVec3::from(swing.axis), angle);
+                let grip = DVec3::from(self.grip);
+                self.mesh
+                    .positions
+                    .iter()
+                    .map(|&p| turn * (vec(p) - grip) + grip)
+                    .collect()
+            }
+        };
+        local
+            .into_iter()
+            .map(|p| (rotation * p + origin).as_vec3().to_array())
             .collect()
+    }
+
+    /// World position of the grip in `frame`: the point a swing turns about.
+    pub fn grip_in_world(&self, frame: &PosedFrame) -> [f32; 3] {
+        let rotation = mat(&frame.joint_rotations[self.joint]);
+        (rotation * DVec3::from(self.grip) + vec(frame.joints[self.joint]))
+            .as_vec3()
+            .to_array()
     }
 }

@@ -3,15 +3,17 @@
 //! images and cameras. Every file is written atomically.
 //!
 //! Layout (`{view}` is `{frame:04}_{camera track}`):
-//! - `scene.json`: preset, seed, fps, label legend, light, prior noise, people (identity,
-//!   accessories, pose files) and every camera (intrinsics, OpenCV world-to-camera) per frame;
+//! - `scene.json`: preset, seed, fps, label legend, light, prior noise and corruption, people
+//!   (identity, whether tracked, accessories with their grip and swing, pose files) and every
+//!   camera (intrinsics, OpenCV world-to-camera) per frame;
 //! - `images/{view}.png` (sRGB) and `images_unshadowed/{view}.png`;
 //! - `masks/{human,accessory,coarse}/{view}.png` (255 inside) and `labels/{view}.png` (raw
 //!   labels, see [`super::scene`]);
 //! - `depth/{view}.npy` (`f32 [H, W]`, camera z in metres, 0 where nothing was hit) and
 //!   `depth_mm/{view}.png` (16-bit millimetres, for nerfstudio);
 //! - `normals/{view}.npy` (`f32 [H, W, 3]`, world space, zero where nothing was hit);
-//! - `people/person_{k}_{truth,prior}.npz` (AMASS layout, 24 joints, 12 betas per frame);
+//! - `people/person_{k}_{truth,prior}.npz` (AMASS layout, 24 joints, 12 betas per frame), for
+//!   tracked people only: an untracked person has no pose track for a method to pick up;
 //! - `transforms.json` (nerfstudio; `time` per frame for dynamic scenes; masks referenced for
 //!   scenes without surroundings).
 
@@ -107,15 +109,21 @@ fn scene_json(scene: &Scene, frames: &[usize]) -> serde_json::Value {
         .iter()
         .enumerate()
         .map(|(k, p)| {
+            let file = |which: &str| format!("people/person_{k:02}_{which}.npz");
             json!({
                 "body_label": body_label(k),
                 "accessory_label": accessory_label(k),
+                "tracked": p.tracked,
+                "clothed": p.clothed,
                 "identity": p.identity,
                 "accessories": p.accessories.iter()
-                    .map(|a| json!({"kind": a.kind, "joint": a.joint}))
+                    .map(|a| json!({
+                        "kind": a.kind, "joint": a.joint, "grip": a.grip, "swing": a.swing
+                    }))
                     .collect::<Vec<_>>(),
-                "truth": format!("people/person_{k:02}_truth.npz"),
-                "prior": format!("people/person_{k:02}_prior.npz"),
+                // An untracked person has no pose files.
+                "truth": p.tracked.then(|| file("truth")),
+                "prior": p.tracked.then(|| file("prior")),
             })
         })
         .collect();
@@ -142,6 +150,7 @@ fn scene_json(scene: &Scene, frames: &[usize]) -> serde_json::Value {
             "shadow_resolution": scene.lighting.shadow_resolution,
         },
         "prior_noise": scene.noise,
+        "prior_corruption": scene.corruption,
         "people": people,
         "tracks": tracks,
     })
@@ -200,6 +209,9 @@ pub fn write_scene(
         std::fs::create_dir_all(dir.join(sub)).map_err(|e| io_error(&dir.join(sub), e))?;
     }
     for (k, person) in scene.people.iter().enumerate() {
+        if !person.tracked {
+            continue;
+        }
         let select = |seq: &crate::pose_sequence::PoseSequence| {
             let mut out = seq.clone();
             let j3 = 3 * seq.joints;

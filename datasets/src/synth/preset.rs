@@ -1,12 +1,18 @@
 //! The scenes each method trains on by default, built from a seed: a multi-view studio subject
 //! (NLF-GS), a person in a room filmed hand-held (Prior-4D, Illum), pedestrians with
 //! accessories crossing a street in front of a car (APF-GS), a static yard (3DGS).
+//!
+//! The driving scene carries what makes APF-GS's claims measurable (its spec, "Synthetic-only
+//! testing"): a window of frames where the prior fails ([`PriorCorruption`]), clothing relief the
+//! body model lacks ([`super::clothing`]), an untracked passer-by, a swinging handbag
+//! ([`super::accessory::Swing`]), people tall on screen and 60 frames. A LiDAR stand-in and
+//! coarse-mask variants come from any rendered view ([`super::sensors`]).
 
 use super::accessory::AccessoryKind;
 use super::environment::{self, CROSSING_Z, Environment, KERB, ROAD_HALF_WIDTH};
 use super::identity::Identity;
 use super::motion::{Motion, Start, generate};
-use super::prior::PriorNoise;
+use super::prior::{PriorCorruption, PriorNoise};
 use super::rig::{self, CameraTrack, EgoPath, Lens};
 use super::rng::Rng;
 use super::scene::{Person, Preset, Scene, standing_height};
@@ -16,12 +22,13 @@ use glam::DVec3;
 use std::f64::consts::PI;
 
 /// Who a person is, how they move, where they start (ground position, heading, ground
-/// height) and what they carry.
+/// height), what they carry and whether a body tracker follows them.
 struct Role<'a> {
     identity: Identity,
     motions: &'a [Motion],
     start: ([f64; 2], f64, f64),
     accessories: &'a [(AccessoryKind, [f32; 3])],
+    tracked: bool,
 }
 
 /// What to build.
@@ -34,6 +41,12 @@ pub struct SceneConfig {
     /// Frames to generate; the preset's default when `None`.
     pub frames: Option<usize>,
     pub noise: PriorNoise,
+    /// A tracker failure added to every tracked person's prior after `noise`; the driving
+    /// preset's is [`PriorCorruption::driving`], the others have none.
+    pub corruption: Option<PriorCorruption>,
+    /// Whether people wear the clothing relief ([`super::clothing`]); on for the driving preset
+    /// only.
+    pub clothing_relief: bool,
     /// Samples per pixel along each axis.
     pub supersample: usize,
     /// Shadow-map resolution; `None` turns shadows off.
@@ -55,6 +68,8 @@ impl SceneConfig {
             height,
             frames: None,
             noise: PriorNoise::default(),
+            corruption: (preset == Preset::Driving).then(PriorCorruption::driving),
+            clothing_relief: preset == Preset::Driving,
             supersample: 2,
             shadow_resolution: Some(1024),
         }
@@ -101,6 +116,7 @@ impl SceneConfig {
                 shadow_resolution: self.shadow_resolution,
             },
             noise: self.noise,
+            corruption: self.corruption.clone(),
             settings: RenderSettings {
                 background: [0.0; 3],
                 supersample: self.supersample,
@@ -114,6 +130,7 @@ impl SceneConfig {
             motions,
             start: (position, heading, ground),
             accessories,
+            tracked,
         } = role;
         let start = Start {
             position,
@@ -122,14 +139,20 @@ impl SceneConfig {
         };
         let mut motion = generate(motions, start, fps);
         truncate(&mut motion, frames);
-        Person::new(
+        let mut person = Person::new(
             identity,
             &motion,
             accessories,
             &self.noise,
             self.seed ^ salt,
             device,
-        )
+        );
+        person.tracked = tracked;
+        person.clothed = self.clothing_relief;
+        if let (true, Some(corruption)) = (tracked, &self.corruption) {
+            corruption.apply(&mut person.prior);
+        }
+        person
     }
 
     /// One subject turning on the spot and waving, seen by the 16-camera ring 2 m away at −8°
@@ -151,6 +174,7 @@ impl SceneConfig {
                 motions: &motions,
                 start: ([0.0, 0.0], 0.0, 0.0),
                 accessories: &[],
+                tracked: true,
             },
             fps,
             frames,
@@ -203,6 +227,7 @@ impl SceneConfig {
                 motions: &motions,
                 start: ([-radius, 0.0], 0.0, 0.0),
                 accessories: &[],
+                tracked: true,
             },
             fps,
             frames,
@@ -249,25 +274,39 @@ impl SceneConfig {
         )
     }
 
-    /// A car slowly (2.5 m/s) approaching a zebra crossing from 16 m; three pedestrians (a backpack, a
-    /// suitcase, a handbag) cross in front of it and a fourth walks along the left sidewalk.
-    /// Front, front-left and front-right cameras; afternoon sun.
+    /// A car creeping (1 m/s) towards a zebra crossing; three pedestrians (a backpack, a
+    /// suitcase, a handbag) cross in front of it, a fourth (carrying nothing) walks along the
+    /// left sidewalk towards the car, and a fifth, whom no tracker follows, along the right one
+    /// (people 0–4 in that order).
+    /// Front, front-left and front-right cameras; afternoon sun; 60 frames at 10 fps by
+    /// default, so a stride-15 split holds out frames 14, 29, 44 and 59.
+    ///
+    /// Geometry (metres, the car drives along +z in the right lane, x = −1.75; left is +x): the
+    /// roof cameras sit 1.5 m ahead of the car and 1.55 m up, at z = 13.5 + t, from 10.5 m
+    /// before the crossing's centre (z = 24) to 4.6 m at frame 59, never reaching its near edge
+    /// (z = 22). The crossing walkers keep to z = 23, 24.3 and 25.2, 9.5–11.7 m from the cameras
+    /// at the start and 3.6–5.8 m at frame 59, so at 384×216 and 70° across (f ≈ 274 px) a
+    /// 1.7 m person is 40–50 px tall at first and 80–130 px at the end, feet in view
+    /// throughout (they leave the 4°-pitched image closer than 3.3 m). They walk at 0.9–1.05 m/s
+    /// (slower on clips too long to cross otherwise) and stay between the kerbs, |x| ≤ 3.2,
+    /// which the three cameras (±35° ahead and 10°–80° to either side) always cover.
     fn driving(&self, device: &Device) -> Scene {
         let fps = 10.0;
-        let frames = self.frames.unwrap_or(40);
+        let frames = self.frames.unwrap_or(60);
+        let duration = frames.saturating_sub(1) as f64 / fps;
         let mut rng = Rng(self.seed ^ 0xD41F_E000);
         let walkers: [(AccessoryKind, f64, f64); 3] = [
             (AccessoryKind::Backpack, 1.0, -1.0),
             (AccessoryKind::Suitcase, -1.0, 0.3),
             (AccessoryKind::Handbag, 1.0, 1.2),
         ];
+        let kerb = ROAD_HALF_WIDTH - 0.3;
         let mut people = Vec::new();
         for (k, &(kind, direction, dz)) in walkers.iter().enumerate() {
             // Crossing from one kerb towards the other, some already on their way, none
             // reaching the far kerb before the clip ends.
-            let speed = rng.range(1.0, 1.4);
-            let travel = speed * frames as f64 / fps;
-            let kerb = ROAD_HALF_WIDTH - 0.3;
+            let speed = rng.range(0.9, 1.05).min(2.0 * kerb / duration);
+            let travel = speed * duration;
             let x = direction * (kerb - rng.range(0.0, (2.0 * kerb - travel).max(0.0)));
             let heading = if direction > 0.0 { -PI / 2.0 } else { PI / 2.0 };
             let colour = super::identity::colour_between(&mut rng, 0.15, 0.7);
@@ -281,6 +320,7 @@ impl SceneConfig {
                     }],
                     start: ([x, CROSSING_Z + dz], heading, 0.0),
                     accessories: &[(kind, colour)],
+                    tracked: true,
                 },
                 fps,
                 frames,
@@ -288,26 +328,37 @@ impl SceneConfig {
                 device,
             ));
         }
-        people.push(self.person(
-            Role {
-                identity: Identity::sample(self.seed.wrapping_add(4)),
-                motions: &[Motion::Walk {
-                    seconds: 60.0,
-                    speed: 1.3,
-                    turn_rate: 0.0,
-                }],
-                start: ([ROAD_HALF_WIDTH + 1.5, CROSSING_Z + 6.0], PI, KERB),
-                accessories: &[],
-            },
-            fps,
-            frames,
-            4,
-            device,
-        ));
+        // Along the sidewalks towards the car: side, start ahead of the crossing, speed, and
+        // whether tracked.
+        let sidewalks = [(1.0, 6.0, 1.3, true), (-1.0, 3.0, 0.8, false)];
+        for (k, (side, ahead, speed, tracked)) in sidewalks.into_iter().enumerate() {
+            let salt = k as u64 + 4;
+            people.push(self.person(
+                Role {
+                    identity: Identity::sample(self.seed.wrapping_add(salt)),
+                    motions: &[Motion::Walk {
+                        seconds: 60.0,
+                        speed,
+                        turn_rate: 0.0,
+                    }],
+                    start: (
+                        [side * (ROAD_HALF_WIDTH + 1.5), CROSSING_Z + ahead],
+                        PI,
+                        KERB,
+                    ),
+                    accessories: &[],
+                    tracked,
+                },
+                fps,
+                frames,
+                salt,
+                device,
+            ));
+        }
         let path = EgoPath {
             lane_x: -0.5 * ROAD_HALF_WIDTH,
-            start_z: CROSSING_Z - 16.0,
-            speed: 2.5,
+            start_z: CROSSING_Z - 12.0,
+            speed: 1.0,
         };
         let tracks = rig::vehicle(
             path,
@@ -341,6 +392,7 @@ impl SceneConfig {
                 motions: &[Motion::Idle { seconds: 60.0 }],
                 start: ([0.0, 0.0], 0.3, 0.0),
                 accessories: &[],
+                tracked: true,
             },
             1.0,
             frames,

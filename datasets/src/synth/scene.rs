@@ -3,13 +3,15 @@
 //! rendering any (frame, camera) with its ground truth. Nothing here touches the disk.
 //!
 //! Labels in [`ViewTruth::render`]`.label`: 0 nothing, [`STATIC_LABEL`] the surroundings, then
-//! per person `k`: `2 + 2k` the body, `3 + 2k` its accessories.
+//! per person `k`: `2 + 2k` the body, `3 + 2k` its accessories. Untracked people (no prior
+//! track for a method, [`Person::tracked`]) are labelled like everyone else.
 
 use super::accessory::Accessory;
+use super::clothing;
 use super::environment::{Environment, Surface};
 use super::identity::Identity;
 use super::motion::relaxed_pose;
-use super::prior::PriorNoise;
+use super::prior::{PriorCorruption, PriorNoise, joint_angle_error};
 use super::rig::CameraTrack;
 use crate::pose_sequence::PoseSequence;
 use crate::posing::{PosedFrame, pose_frames_with_joints};
@@ -46,10 +48,17 @@ pub struct Person {
     pub accessories: Vec<Accessory>,
     /// True motion, fitted to the built-in body with the identity's shape on every frame.
     pub motion: PoseSequence,
-    /// The motion and shape with [`PriorNoise`] applied.
+    /// The motion and shape with [`PriorNoise`] applied (and, for a tracked person, the
+    /// scene's [`PriorCorruption`]).
     pub prior: PoseSequence,
-    /// `motion` posed, one entry per frame.
+    /// `motion` posed, one entry per frame: the plain body model, which is what a method fits.
     pub frames: Vec<PosedFrame>,
+    /// Whether a body tracker followed this person: false for a passer-by whose `prior` no
+    /// method may use (none is exported); they belong to the background.
+    pub tracked: bool,
+    /// Whether the rendered body wears the clothing relief ([`clothing`]) on top of `frames`
+    /// ([`Scene::body_vertices`]).
+    pub clothed: bool,
 }
 
 /// Pelvis height of the built-in body with shape `betas` standing on y = 0.
@@ -80,6 +89,7 @@ impl Person {
     /// A person of `identity` following `motion` (a 24-joint sequence from
     /// [`super::motion::generate`], whose shape is replaced by the identity's), carrying
     /// `accessories` (kind and colour); the prior is `motion` perturbed by `noise` from `seed`.
+    /// Tracked, without clothing relief.
     pub fn new(
         identity: Identity,
         motion: &PoseSequence,
@@ -106,6 +116,8 @@ impl Person {
             accessories,
             motion,
             frames,
+            tracked: true,
+            clothed: false,
         }
     }
 }
@@ -136,6 +148,8 @@ pub struct Scene {
     pub tracks: Vec<CameraTrack>,
     pub lighting: Lighting,
     pub noise: PriorNoise,
+    /// The tracker failure in every tracked person's prior, if any.
+    pub corruption: Option<PriorCorruption>,
     pub settings: RenderSettings,
 }
 
@@ -146,6 +160,8 @@ pub struct ViewTruth {
     pub track: usize,
     pub camera: Camera,
     pub render: MeshRender,
+    /// People in the scene: the length of per-person results ([`ViewTruth::person_boxes`]).
+    pub people: usize,
 }
 
 impl ViewTruth {
@@ -182,31 +198,75 @@ impl ViewTruth {
     }
 }
 
+/// Where every person's surfaces are at one frame.
+struct PeopleAt {
+    /// Rendered body vertices, per person.
+    bodies: Vec<Vec<[f32; 3]>>,
+    /// Accessory vertices, `[person][accessory]`.
+    accessories: Vec<Vec<Vec<[f32; 3]>>>,
+}
+
 impl Scene {
+    /// Seconds since the first frame.
+    pub fn time(&self, frame: usize) -> f64 {
+        frame as f64 / self.fps
+    }
+
+    /// World positions of person `k`'s body as rendered at `frame`: the posed body model
+    /// (`frames[frame].vertices`), with the clothing relief where the person wears it.
+    pub fn body_vertices(&self, k: usize, frame: usize) -> Vec<[f32; 3]> {
+        let person = &self.people[k];
+        let posed = &person.frames[frame].vertices;
+        if person.clothed {
+            clothing::dress(posed, triangles(&builtin_body().model.faces))
+        } else {
+            posed.clone()
+        }
+    }
+
     /// World positions of person `k`'s accessory `a` at `frame`.
     pub fn accessory_vertices(&self, k: usize, a: usize, frame: usize) -> Vec<[f32; 3]> {
         let person = &self.people[k];
-        person.accessories[a].place(&person.frames[frame])
+        person.accessories[a].place(&person.frames[frame], self.time(frame))
     }
 
-    /// Accessory positions of every person at `frame` (`[person][accessory]`).
-    fn accessories_at(&self, frame: usize) -> Vec<Vec<Vec<[f32; 3]>>> {
-        (0..self.people.len())
-            .map(|k| {
-                (0..self.people[k].accessories.len())
-                    .map(|a| self.accessory_vertices(k, a, frame))
-                    .collect()
-            })
-            .collect()
+    /// World position of the grip of person `k`'s accessory `a` at `frame`: the point its
+    /// swing, if any, turns about.
+    pub fn accessory_grip(&self, k: usize, a: usize, frame: usize) -> [f32; 3] {
+        let person = &self.people[k];
+        person.accessories[a].grip_in_world(&person.frames[frame])
     }
 
-    /// The meshes of `frame`: surroundings, then (when `accessories` is given) each person and
-    /// their accessories at those positions.
+    /// Per frame, the error injected into person `k`'s prior: the mean angle (radians) between
+    /// the true and the prior local rotations of the body joints
+    /// ([`super::prior::joint_angle_error`]).
+    pub fn prior_joint_error(&self, k: usize) -> Vec<f64> {
+        let person = &self.people[k];
+        joint_angle_error(&person.motion, &person.prior)
+    }
+
+    /// Every person's body and accessories at `frame`.
+    fn people_at(&self, frame: usize) -> PeopleAt {
+        PeopleAt {
+            bodies: (0..self.people.len())
+                .map(|k| self.body_vertices(k, frame))
+                .collect(),
+            accessories: (0..self.people.len())
+                .map(|k| {
+                    (0..self.people[k].accessories.len())
+                        .map(|a| self.accessory_vertices(k, a, frame))
+                        .collect()
+                })
+                .collect(),
+        }
+    }
+
+    /// The meshes of a frame: surroundings, then (when `people` is given) each person and their
+    /// accessories at those positions.
     fn meshes<'a>(
         &'a self,
-        frame: usize,
         body_coords: &'a [[f32; 2]],
-        accessories: Option<&'a [Vec<Vec<[f32; 3]>>]>,
+        people: Option<&'a PeopleAt>,
     ) -> Vec<MeshInstance<'a>> {
         let body = builtin_body();
         let mut meshes = Vec::new();
@@ -226,12 +286,12 @@ impl Scene {
                 smooth: false,
             });
         }
-        let Some(accessories) = accessories else {
+        let Some(at) = people else {
             return meshes;
         };
         for (k, person) in self.people.iter().enumerate() {
             meshes.push(MeshInstance {
-                positions: &person.frames[frame].vertices,
+                positions: &at.bodies[k],
                 faces: triangles(&body.model.faces),
                 albedo: Albedo::Textured {
                     coords: body_coords,
@@ -243,7 +303,7 @@ impl Scene {
             });
             for (a, accessory) in person.accessories.iter().enumerate() {
                 meshes.push(MeshInstance {
-                    positions: &accessories[k][a],
+                    positions: &at.accessories[k][a],
                     faces: &accessory.mesh.faces,
                     albedo: Albedo::PerVertex(&accessory.mesh.colours),
                     label: accessory_label(k),
@@ -271,6 +331,7 @@ impl Scene {
             track,
             camera,
             render: render_with_shadows(meshes, &camera, &self.lighting, &settings, shadows),
+            people: self.people.len(),
         }
     }
 
@@ -301,12 +362,8 @@ impl Scene {
             self.frame_count
         );
         let coords = body_coords();
-        let accessories = self.accessories_at(frame);
-        let meshes = self.meshes(
-            frame,
-            &coords,
-            with_people.then_some(accessories.as_slice()),
-        );
+        let people = with_people.then(|| self.people_at(frame));
+        let meshes = self.meshes(&coords, people.as_ref());
         let shadows = shadow_map(&meshes, &self.lighting);
         tracks
             .par_iter()

@@ -1,11 +1,15 @@
 //! The datasets crate's integration tests, one binary: public-format loaders on written
 //! fixtures (and on the real releases' awkward parts, [`real_layouts`]; COLMAP scenes and
 //! nerfstudio's PLY points, [`colmap_scenes`]), the pose-body command,
-//! pose sequences, the CPU mesh renderer, synthetic scenes and their export.
+//! pose sequences, the CPU mesh renderer, synthetic scenes and their export (the driving
+//! preset's APF-GS measurements, [`driving`]), and binary masks for APF-GS's decoupling
+//! ([`masks`]).
 
 mod colmap_scenes;
+mod driving;
 mod fixtures;
 mod formats;
+mod masks;
 mod pose_body_cli;
 mod pose_sequence;
 mod real_layouts;

@@ -1,6 +1,6 @@
 //! Synthetic scenes: determinism from a seed, every preset framing its people, masks consistent
 //! with depth, normals agreeing with normals from depth finite differences, accessories rigid on
-//! their joints and clear of the ground.
+//! their joints (a swinging one rigid about its grip) and clear of the ground.
 
 use burn::tensor::Device;
 use splatzoo_datasets::synth::accessory::AccessoryKind;
@@ -44,7 +44,7 @@ fn scenes_are_deterministic_from_the_seed_and_differ_between_seeds() {
 #[test]
 fn the_driving_scene_shows_every_crossing_pedestrian_and_accessory() {
     let scene = small(Preset::Driving, 0, (192, 108), 12);
-    assert_eq!(scene.people.len(), 4);
+    assert_eq!(scene.people.len(), 5);
     assert_eq!(scene.tracks.len(), 3);
     let carried: usize = scene.people.iter().map(|p| p.accessories.len()).sum();
     assert_eq!(carried, 3);
@@ -200,8 +200,12 @@ fn accessories_stay_rigid_on_their_joint_and_clear_of_the_ground() {
     let scene = small(Preset::Driving, 5, (32, 18), 40);
     for (k, person) in scene.people.iter().enumerate() {
         for (a, accessory) in person.accessories.iter().enumerate() {
+            // A swinging accessory keeps its shape about its grip, a rigid one about its joint.
             let distances = |f: usize| -> Vec<f32> {
-                let joint = person.frames[f].joints[accessory.joint];
+                let joint = match accessory.swing {
+                    Some(_) => scene.accessory_grip(k, a, f),
+                    None => person.frames[f].joints[accessory.joint],
+                };
                 scene
                     .accessory_vertices(k, a, f)
                     .iter()

@@ -332,19 +332,21 @@ impl SkinnedGaussianNode {
             }
         };
         let transforms = target.after_inverse_of(&canonical_joints);
-        let residual = |splats: Splats, space: ResidualSpace| match &self.non_rigid {
-            Some(field) if field.space() == space => field
-                .residual(&ResidualInput {
-                    splats: &splats,
-                    frame,
-                    pose: &frame_pose.rotations,
-                })
-                .apply(splats),
-            _ => splats,
-        };
-        let canonical = residual(canonical, ResidualSpace::Canonical);
-        let splats = skin_splats(canonical, self.skinning_weights(), &transforms);
-        let splats = residual(splats, ResidualSpace::Posed);
+        let residual =
+            |splats: Splats, canonical: &Splats, space: ResidualSpace| match &self.non_rigid {
+                Some(field) if field.space() == space => field
+                    .residual(&ResidualInput {
+                        splats: &splats,
+                        canonical,
+                        frame,
+                        pose: &frame_pose.rotations,
+                    })
+                    .apply(splats),
+                _ => splats,
+            };
+        let canonical = residual(canonical.clone(), &canonical, ResidualSpace::Canonical);
+        let splats = skin_splats(canonical.clone(), self.skinning_weights(), &transforms);
+        let splats = residual(splats, &canonical, ResidualSpace::Posed);
         let joints = JointTransforms {
             rotations: target.rotations,
             translations: posed_body.joints.reshape([j, 3]),

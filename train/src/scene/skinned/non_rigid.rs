@@ -19,6 +19,9 @@ pub enum ResidualSpace {
 pub struct ResidualInput<'a> {
     /// The Gaussians in the residual's space.
     pub splats: &'a Splats,
+    /// The canonical Gaussians they came from (the same rows; a posed-space field conditions
+    /// on canonical positions, APF-GS's `γ(μ̄)`).
+    pub canonical: &'a Splats,
     pub frame: usize,
     /// `[1, J, 3, 3]` the frame's refined local joint rotations (a pose condition).
     pub pose: &'a Tensor<4>,

@@ -1,0 +1,285 @@
+//! APF-GS's scores (spec §5, A11): on reconstruction (training timesteps) and novel-view
+//! synthesis (held-out timesteps), full-image PSNR/SSIM/LPIPS and human-region PSNR/SSIM by
+//! drivestudio's formula (per image, MSE over the mask's pixels → PSNR, averaged over images;
+//! SSIM's map averaged over the mask), on the dataset's coarse mask and on the true human mask,
+//! plus the true accessory region; leakage of the human nodes into accessory pixels and the
+//! IoU of their alpha with the true human; the σ trace against the injected pose error; the
+//! refined pose's joint error against the prior's.
+
+use crate::scene::{FrameInputs, Stage};
+use crate::trainer::ApfTrainer;
+use burn::module::Module;
+use burn::tensor::{Device, Tensor, TensorData};
+use serde::Serialize;
+use splatzoo_datasets::masks::Mask;
+use splatzoo_datasets::pose_sequence::PoseSequence;
+use splatzoo_models::body::BodyModel;
+use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
+use splatzoo_train::TrainError;
+use splatzoo_train::harness::{ScoreSum, Scores};
+use splatzoo_train::host_f32;
+use splatzoo_train::loss::{masked_psnr, masked_ssim, psnr, scalar, ssim};
+use splatzoo_train::lpips::Lpips;
+
+/// How the human region is scored (written into `metrics.json`).
+pub const HUMAN_REGION: &str = "drivestudio's human_psnr: per image, MSE over the mask pixels → PSNR, averaged over images with a non-empty mask; SSIM map averaged over the mask";
+
+/// Scores of one view set.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct SetScores {
+    pub full: Scores,
+    /// Over the dataset's coarse mask (every person, accessories included).
+    pub human_coarse: Scores,
+    /// Over the true body pixels and the true accessory pixels.
+    pub human_true: Scores,
+    pub accessory_true: Scores,
+    /// `Σ A_h` over true accessory pixels / their count (human nodes' alpha where an accessory is).
+    pub leakage: f64,
+    /// IoU of `A_h > 0.5` with the true human mask (pooled over the images).
+    pub human_iou: f64,
+    pub images: usize,
+}
+
+fn mask_tensor(m: &Mask, device: &Device) -> Tensor<2> {
+    Tensor::from_data(
+        TensorData::new(
+            m.data.iter().map(|&b| f32::from(b)).collect::<Vec<_>>(),
+            [m.height, m.width],
+        ),
+        device,
+    )
+}
+
+impl ApfTrainer {
+    /// The composed frame of view `index` rendered now (no autodiff), with the node-alpha pass.
+    pub fn render_view(
+        &self,
+        index: usize,
+    ) -> Result<(splatzoo_rasterizer::Render, Tensor<2>), TrainError> {
+        let view = &self.capture.views[index];
+        let nets = self.nets.valid();
+        let stage = self.stage(self.step);
+        let visible: Vec<bool> = vec![true; self.capture.people.len()];
+        let guided = self.guided(&nets, view.frame, &visible, stage);
+        let composed = self.scene.compose(
+            &FrameInputs {
+                camera: &view.camera,
+                frame: view.frame,
+                time: view.frame as f64 / self.capture.fps,
+                guided: &guided,
+                nets: &nets,
+                stage,
+                duration: self.duration(),
+                in_step: false,
+            },
+            &self.config,
+        );
+        let render = self.raster(&composed.splats, view.camera, false, false)?;
+        let features = self.raster(&Self::node_features(&composed), view.camera, true, false)?;
+        let [h, w, _] = features.color.dims();
+        let human_alpha = features.color.slice([0..h, 0..w, 0..1]).reshape([h, w]);
+        Ok((render, human_alpha))
+    }
+
+    /// Scores of the views `indices`.
+    pub fn score_set(
+        &self,
+        indices: &[usize],
+        lpips: Option<&Lpips>,
+    ) -> Result<SetScores, TrainError> {
+        let device = self.background.device();
+        let (mut full, mut coarse, mut human, mut accessory) = (
+            ScoreSum::default(),
+            ScoreSum::default(),
+            ScoreSum::default(),
+            ScoreSum::default(),
+        );
+        let (mut leak, mut leak_n) = (0.0f64, 0.0f64);
+        let (mut inter, mut union) = (0usize, 0usize);
+        for &i in indices {
+            let view = &self.capture.views[i];
+            let (render, human_alpha) = self.render_view(i)?;
+            let image = render.color.clamp(0.0, 1.0);
+            let target = view.image.clone();
+            let perceptual = lpips.map(|l| scalar(l.distance(image.clone(), target.clone())));
+            full.add(
+                psnr(image.clone(), target.clone()),
+                scalar(ssim(image.clone(), target.clone())),
+                perceptual,
+            );
+            let region = |sum: &mut ScoreSum, m: &Mask| {
+                if m.area() > 0 {
+                    let t = mask_tensor(m, &device);
+                    sum.add(
+                        masked_psnr(image.clone(), target.clone(), t.clone()),
+                        scalar(masked_ssim(image.clone(), target.clone(), t)),
+                        None,
+                    );
+                }
+            };
+            region(&mut coarse, &view.coarse);
+            if let Some(m) = &view.true_human {
+                region(&mut human, m);
+            }
+            if let Some(m) = &view.true_accessory {
+                region(&mut accessory, m);
+            }
+            let alpha = host_f32(&human_alpha);
+            if let Some(m) = &view.true_accessory {
+                for (a, &on) in alpha.iter().zip(&m.data) {
+                    if on {
+                        leak += f64::from(*a);
+                        leak_n += 1.0;
+                    }
+                }
+            }
+            if let Some(m) = &view.true_human {
+                for (a, &on) in alpha.iter().zip(&m.data) {
+                    let predicted = *a > 0.5;
+                    inter += usize::from(predicted && on);
+                    union += usize::from(predicted || on);
+                }
+            }
+        }
+        Ok(SetScores {
+            full: full.mean(),
+            human_coarse: coarse.mean(),
+            human_true: human.mean(),
+            accessory_true: accessory.mean(),
+            leakage: if leak_n > 0.0 { leak / leak_n } else { 0.0 },
+            human_iou: if union > 0 {
+                inter as f64 / union as f64
+            } else {
+                0.0
+            },
+            images: indices.len(),
+        })
+    }
+
+    /// σ of every (person, frame) from the current networks (`None` before S2 or with the
+    /// residual off).
+    pub fn sigma_trace(&self) -> Option<Vec<Vec<f64>>> {
+        let stage: Stage = self.stage(self.step);
+        if !stage.residual {
+            return None;
+        }
+        let nets = self.nets.valid();
+        Some(
+            (0..self.capture.people.len())
+                .map(|h| {
+                    (0..self.capture.frames)
+                        .map(|t| {
+                            let g = crate::guide::guide(&nets, &self.capture, &self.config, h, t);
+                            f64::from(host_f32(&g.sigma)[0])
+                        })
+                        .collect()
+                })
+                .collect(),
+        )
+    }
+
+    /// Mean per-joint position error (mm) of the refined track and of the prior against the
+    /// truth, over every tracked person with a true track and every frame.
+    pub fn pose_errors(&self) -> Option<(f64, f64)> {
+        let device = self.background.device();
+        let (mut refined, mut prior, mut n) = (0.0, 0.0, 0usize);
+        for (h, person) in self.capture.people.iter().enumerate() {
+            let truth = person.truth.as_ref()?;
+            let true_joints = track_joints(&self.model, truth, &device);
+            let prior_joints = track_joints(&self.model, &person.prior, &device);
+            let node = &self.scene.humans[h].node;
+            for t in 0..self.capture.frames {
+                let r = host_f32(&node.joint_positions(t));
+                refined += joint_error(&r, &true_joints[t]);
+                prior += joint_error(&prior_joints[t], &true_joints[t]);
+                n += 1;
+            }
+        }
+        (n > 0).then(|| (1e3 * refined / n as f64, 1e3 * prior / n as f64))
+    }
+}
+
+/// Mean Euclidean distance between two `[J·3]` joint lists.
+fn joint_error(a: &[f32], b: &[f32]) -> f64 {
+    let j = a.len() / 3;
+    (0..j)
+        .map(|k| {
+            (0..3)
+                .map(|c| f64::from(a[3 * k + c] - b[3 * k + c]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .sum::<f64>()
+        / j.max(1) as f64
+}
+
+/// Joints `[J·3]` of every frame of a track on `model`.
+fn track_joints(model: &BodyModel, track: &PoseSequence, device: &Device) -> Vec<Vec<f32>> {
+    let (f, j) = (track.frames(), model.joint_count());
+    let s = track.shape_count.min(model.shape_count());
+    let betas: Vec<f32> = (0..f)
+        .flat_map(|t| {
+            let b = track.frame_betas(t);
+            (0..model.shape_count()).map(move |k| if k < s { b[k] as f32 } else { 0.0 })
+        })
+        .collect();
+    let body = BodyTensors::new(model, device);
+    let posed = pose(
+        &body,
+        &PoseInput::from_axis_angle(
+            Tensor::from_data(TensorData::new(betas, [f, model.shape_count()]), device),
+            Tensor::from_data(
+                TensorData::new(
+                    track.poses.iter().map(|&v| v as f32).collect::<Vec<_>>(),
+                    [f, 3 * j],
+                ),
+                device,
+            ),
+            Tensor::from_data(
+                TensorData::new(
+                    track
+                        .translations
+                        .iter()
+                        .map(|&v| v as f32)
+                        .collect::<Vec<_>>(),
+                    [f, 3],
+                ),
+                device,
+            ),
+        ),
+    );
+    host_f32(&posed.joints)
+        .chunks(3 * j)
+        .map(|c| c.to_vec())
+        .collect()
+}
+
+/// Spearman's rank correlation of two equally long series (`None` when either is constant).
+pub fn spearman(a: &[f64], b: &[f64]) -> Option<f64> {
+    fn ranks(v: &[f64]) -> Vec<f64> {
+        let mut order: Vec<usize> = (0..v.len()).collect();
+        order.sort_by(|&i, &j| v[i].total_cmp(&v[j]));
+        let mut r = vec![0.0; v.len()];
+        let mut k = 0;
+        while k < order.len() {
+            let mut e = k;
+            while e + 1 < order.len() && v[order[e + 1]] == v[order[k]] {
+                e += 1;
+            }
+            let mean = 0.5 * (k + e) as f64;
+            for &i in &order[k..=e] {
+                r[i] = mean;
+            }
+            k = e + 1;
+        }
+        r
+    }
+    let (ra, rb) = (ranks(a), ranks(b));
+    let n = a.len() as f64;
+    let ma = ra.iter().sum::<f64>() / n;
+    let mb = rb.iter().sum::<f64>() / n;
+    let cov: f64 = ra.iter().zip(&rb).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let va: f64 = ra.iter().map(|x| (x - ma).powi(2)).sum();
+    let vb: f64 = rb.iter().map(|y| (y - mb).powi(2)).sum();
+    (va > 0.0 && vb > 0.0).then(|| cov / (va * vb).sqrt())
+}

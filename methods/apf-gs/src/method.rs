@@ -1,0 +1,347 @@
+//! [`ApfTrainer`] as the harness's [`Method`]: shorthands, fresh and resumed runs, the
+//! evaluation written to `metrics.json`, the checkpoint and the exports.
+
+use crate::config::ApfConfig;
+use crate::eval::{HUMAN_REGION, spearman};
+use crate::networks::ApfNetworks;
+use crate::scene::{BACKGROUND, FrameInputs};
+use crate::trainer::{ApfArgs, ApfTrainer, NetworkOptimizers, OPTIMIZERS};
+use burn::module::Module;
+use burn::tensor::Device;
+use splatzoo_models::networks::weights::{WeightFile, load_module, module_tensors};
+use splatzoo_train::TrainError;
+use splatzoo_train::checkpoint::{Checkpoint, CheckpointError};
+use splatzoo_train::gaussians::GaussianSet;
+use splatzoo_train::harness::{EpochOrder, Evaluation, Method, Say, StepReport};
+use splatzoo_train::images::{side_by_side, srgb_image, write_png};
+use splatzoo_train::lpips::Lpips;
+use splatzoo_train::module_adam::{ModuleAdam, NETWORK_ADAM};
+use splatzoo_train::ply::write_ply;
+use splatzoo_train::scene::SceneNode;
+use std::path::Path;
+
+/// Networks' tensors live under this prefix in checkpoints.
+const NETWORKS: &str = "networks";
+
+/// Moves `optimizer.*` entries of `from` into `into` under `networks.optimizer.<name>.*`.
+fn rekey_optimizer(from: Checkpoint, name: &str, into: &mut Checkpoint) {
+    for (k, v) in from.tensors {
+        let rest = k.strip_prefix("optimizer.").unwrap_or(&k);
+        into.tensors
+            .insert(format!("{NETWORKS}.optimizer.{name}.{rest}"), v);
+    }
+    for (k, v) in from.metadata {
+        let rest = k.strip_prefix("optimizer.").unwrap_or(&k);
+        into.metadata
+            .insert(format!("{NETWORKS}.optimizer.{name}.{rest}"), v);
+    }
+}
+
+/// The entries of optimizer `name` as [`ModuleAdam::save`] wrote them.
+fn optimizer_view(checkpoint: &Checkpoint, name: &str) -> Checkpoint {
+    let prefix = format!("{NETWORKS}.optimizer.{name}.");
+    let mut out = Checkpoint {
+        origin: checkpoint.origin.clone(),
+        ..Default::default()
+    };
+    for (k, v) in &checkpoint.tensors {
+        if let Some(rest) = k.strip_prefix(&prefix) {
+            out.tensors.insert(format!("optimizer.{rest}"), v.clone());
+        }
+    }
+    for (k, v) in &checkpoint.metadata {
+        if let Some(rest) = k.strip_prefix(&prefix) {
+            out.metadata.insert(format!("optimizer.{rest}"), v.clone());
+        }
+    }
+    out
+}
+
+fn load_networks(
+    fresh: ApfNetworks,
+    checkpoint: &Checkpoint,
+) -> Result<(ApfNetworks, NetworkOptimizers), TrainError> {
+    let prefix = format!("{NETWORKS}.");
+    let tensors = checkpoint
+        .tensors
+        .iter()
+        .filter_map(|(k, v)| {
+            k.strip_prefix(&prefix)
+                .filter(|rest| !rest.starts_with("optimizer."))
+                .map(|rest| (rest.to_owned(), v.clone()))
+        })
+        .collect();
+    let file = WeightFile::new(checkpoint.origin.clone(), tensors);
+    let nets = load_module(fresh, &file)?.train();
+    // An optimiser that never stepped (its network had no gradient yet) saved no moments.
+    let load = |name: &str, f: &dyn Fn(&Checkpoint) -> Result<ModuleAdam, CheckpointError>| {
+        let view = optimizer_view(checkpoint, name);
+        if view.tensors.is_empty() {
+            Ok(ModuleAdam::new(NETWORK_ADAM))
+        } else {
+            f(&view)
+        }
+    };
+    let optimizers = NetworkOptimizers {
+        encoder: load("encoder", &|c| {
+            ModuleAdam::load(NETWORK_ADAM, &nets.encoder, c)
+        })?,
+        guidance: load("guidance", &|c| {
+            ModuleAdam::load(NETWORK_ADAM, &nets.guidance, c)
+        })?,
+        residual: load("residual", &|c| {
+            ModuleAdam::load(NETWORK_ADAM, &nets.residual, c)
+        })?,
+        accessory: load("accessory", &|c| {
+            ModuleAdam::load(NETWORK_ADAM, &nets.accessory, c)
+        })?,
+        embeddings: load("embeddings", &|c| {
+            ModuleAdam::load(NETWORK_ADAM, &nets.embeddings, c)
+        })?,
+    };
+    Ok((nets, optimizers))
+}
+
+impl Method for ApfTrainer {
+    const NAME: &'static str = "apf";
+    const FORMAT: &'static str = "splatzoo-apf-1";
+    const ABOUT: &'static str = "APF-GS: pedestrians in driving scenes (reliability-gated residual field, human/accessory decoupling, parent-child accessories)";
+    type Config = ApfConfig;
+    type Args = ApfArgs;
+
+    fn overrides(args: &ApfArgs) -> Vec<String> {
+        let mut sets = Vec::new();
+        if args.no_decoupling {
+            sets.push("decouple.enabled=false".into());
+        }
+        if let Some(v) = args.fixed_sigma {
+            sets.push("gate.mode=\"fixed\"".into());
+            sets.push(format!("gate.value={v}"));
+        }
+        sets
+    }
+
+    fn new(config: ApfConfig, device: &Device) -> Result<Self, TrainError> {
+        Ok(Self::assemble(config, device)?)
+    }
+
+    fn resume(
+        config: ApfConfig,
+        checkpoint: &Checkpoint,
+        device: &Device,
+    ) -> Result<Self, TrainError> {
+        let mut trainer = Self::assemble(config, device)?;
+        for node in trainer.scene.nodes_mut() {
+            let name = node.name().to_owned();
+            node.load(checkpoint, &name, device)?;
+        }
+        let fresh = trainer.nets.clone();
+        let (nets, optimizers) = load_networks(fresh, checkpoint)?;
+        trainer.nets = nets;
+        trainer.optimizers = optimizers;
+        trainer.step = checkpoint.meta_parsed("step")?;
+        trainer.order = EpochOrder::load(checkpoint, trainer.capture.train.len())?;
+        Ok(trainer)
+    }
+
+    fn steps(&self) -> usize {
+        self.step
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "{} training and {} held-out images; {} Gaussians: {} humans, {} accessories, background {}",
+            self.capture.train.len(),
+            self.capture.test.len(),
+            self.scene.gaussians(),
+            self.scene.humans.len(),
+            self.scene.accessories.len(),
+            self.scene.background.gaussians(),
+        )
+    }
+
+    fn decisions(&self) -> Vec<String> {
+        let mut d = self.capture.decisions.clone();
+        d.extend(self.scene.decisions.iter().cloned());
+        d
+    }
+
+    fn step(&mut self) -> Result<StepReport, TrainError> {
+        Ok(self.train_step()?)
+    }
+
+    fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError> {
+        let novel = self.score_set(&self.capture.test, lpips)?;
+        // Reconstruction on every 6th training image (the same ones each time).
+        let recon_views: Vec<usize> = self.capture.train.iter().step_by(6).copied().collect();
+        let recon = self.score_set(&recon_views, lpips)?;
+        let mut evaluation = Evaluation::new(self.step, novel.human_coarse)
+            .with(
+                "scores",
+                "novel view (held-out timesteps), coarse human region",
+            )
+            .with("human_region", HUMAN_REGION)
+            .with(
+                "novel_view",
+                serde_json::to_value(novel).expect("plain data"),
+            )
+            .with(
+                "reconstruction",
+                serde_json::to_value(recon).expect("plain data"),
+            )
+            .with("gaussians", self.scene.gaussians());
+        if let Some((refined, prior)) = self.pose_errors() {
+            evaluation = evaluation
+                .with("mpjpe_mm", refined)
+                .with("prior_mpjpe_mm", prior);
+        }
+        if let Some(trace) = self.sigma_trace() {
+            evaluation = evaluation.with("sigma", sigma_summary(self, &trace));
+        }
+        Ok(evaluation)
+    }
+
+    fn checkpoint(&self) -> Checkpoint {
+        let mut c = Checkpoint::default();
+        for node in self.scene.nodes() {
+            node.save(&mut c, node.name());
+        }
+        for (k, v) in module_tensors(&self.nets) {
+            c.tensors.insert(format!("{NETWORKS}.{k}"), v);
+        }
+        let o = &self.optimizers;
+        let n = &self.nets;
+        let mut save = |name: &str, f: &dyn Fn(&mut Checkpoint)| {
+            let mut part = Checkpoint::default();
+            f(&mut part);
+            rekey_optimizer(part, name, &mut c);
+        };
+        save(OPTIMIZERS[0], &|p| o.encoder.save(&n.encoder, p));
+        save(OPTIMIZERS[1], &|p| o.guidance.save(&n.guidance, p));
+        save(OPTIMIZERS[2], &|p| o.residual.save(&n.residual, p));
+        save(OPTIMIZERS[3], &|p| o.accessory.save(&n.accessory, p));
+        save(OPTIMIZERS[4], &|p| o.embeddings.save(&n.embeddings, p));
+        self.order.save(&mut c);
+        c
+    }
+
+    /// `.ply` files (each node's canonical Gaussians and the whole scene posed at the first
+    /// held-out timestep), held-out renders (render | truth) and the σ trace.
+    fn finish(
+        &self,
+        run: &Path,
+        _say: &mut dyn Say,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError> {
+        write_ply(&run.join("background.ply"), &self.scene.background.set)?;
+        for (h, human) in self.scene.humans.iter().enumerate() {
+            write_ply(
+                &run.join(format!("human_{h}_canonical.ply")),
+                human.node.canonical_set(),
+            )?;
+        }
+        for a in &self.scene.accessories {
+            write_ply(
+                &run.join(format!("accessory_{}_canonical.ply", a.person)),
+                a.node.canonical_set(),
+            )?;
+        }
+        if let Some(&first) = self.capture.test.first() {
+            let view = &self.capture.views[first];
+            let nets = self.nets.valid();
+            let stage = self.stage(self.step);
+            let visible = vec![true; self.capture.people.len()];
+            let guided = self.guided(&nets, view.frame, &visible, stage);
+            let composed = self.scene.compose(
+                &FrameInputs {
+                    camera: &view.camera,
+                    frame: view.frame,
+                    time: view.frame as f64 / self.capture.fps,
+                    guided: &guided,
+                    nets: &nets,
+                    stage,
+                    duration: self.duration(),
+                    in_step: false,
+                },
+                &self.config,
+            );
+            write_ply(
+                &run.join(format!("scene_frame_{:04}.ply", view.frame)),
+                &GaussianSet::from_splats(&composed.splats),
+            )?;
+        }
+        let renders = run.join("renders");
+        std::fs::create_dir_all(&renders).map_err(|e| {
+            splatzoo_datasets::DatasetError::file(&renders, format!("cannot create ({e})"))
+        })?;
+        for &i in &self.capture.test {
+            let (render, _) = self.render_view(i)?;
+            let view = &self.capture.views[i];
+            let pair = side_by_side(&[srgb_image(&render.color), srgb_image(&view.image)]);
+            write_png(&renders.join(format!("{}.png", view.name)), &pair)?;
+        }
+        let mut summary = serde_json::Map::new();
+        summary.insert("gaussians".into(), self.scene.gaussians().into());
+        let nodes: Vec<String> = self
+            .scene
+            .nodes()
+            .iter()
+            .map(|n| n.name().to_owned())
+            .collect();
+        summary.insert("nodes".into(), nodes.into());
+        let parents: Vec<serde_json::Value> = self
+            .scene
+            .accessories
+            .iter()
+            .map(|a| {
+                serde_json::json!({
+                    "person": a.person,
+                    "joint": a.node.joint,
+                    "true_joints": self.capture.people[a.person].true_parents,
+                    "attach": a.node.attachment(),
+                })
+            })
+            .collect();
+        summary.insert("accessories".into(), parents.into());
+        if let Some(trace) = self.sigma_trace() {
+            summary.insert(
+                "sigma_trace".into(),
+                serde_json::to_value(&trace).expect("plain data"),
+            );
+        }
+        let _ = BACKGROUND;
+        Ok(summary)
+    }
+}
+
+/// σ statistics: mean inside and outside the corruption window, Spearman ρ against the injected
+/// error, median and spread over every (person, frame).
+fn sigma_summary(trainer: &ApfTrainer, trace: &[Vec<f64>]) -> serde_json::Value {
+    let (mut inside, mut outside) = (Vec::new(), Vec::new());
+    let (mut sigmas, mut errors) = (Vec::new(), Vec::new());
+    for (h, row) in trace.iter().enumerate() {
+        let person = &trainer.capture.people[h];
+        for (t, &s) in row.iter().enumerate() {
+            if person.corrupted.get(t).copied().unwrap_or(false) {
+                inside.push(s);
+            } else {
+                outside.push(s);
+            }
+            sigmas.push(s);
+            errors.push(person.injected.get(t).copied().unwrap_or(0.0));
+        }
+    }
+    let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+    let mut sorted = sigmas.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted.get(sorted.len() / 2).copied();
+    let m = mean(&sigmas).unwrap_or(0.0);
+    let std =
+        (sigmas.iter().map(|s| (s - m).powi(2)).sum::<f64>() / sigmas.len().max(1) as f64).sqrt();
+    serde_json::json!({
+        "mean_in_corruption_window": mean(&inside),
+        "mean_outside": mean(&outside),
+        "spearman_vs_injected_error": spearman(&sigmas, &errors),
+        "median": median,
+        "std": std,
+    })
+}

@@ -1,0 +1,136 @@
+//! Eq. 4–5 of APF-GS on the engine's skinned node: `g_i(t) = T_h(t) ⊗ (LBS(ḡ_i, θ(t)) ⊕ Δ_i)`
+//! with `Δ_i = a(σ_t) · F_φ(γ(μ̄_i), c_t)`.
+//!
+//! The node already applies LBS with the refined pose, whose root rotation and translation are
+//! `T_h` (initialised from the track, refined per frame). Δ is written in the body frame, after
+//! LBS and before `T_h`, as the paper orders it; applied to the node's world-space output that
+//! is: `μ = μ_posed + R_h δμ`, `q = (R_h n((1,0,0,0) + δq) R_hᵀ) ⊗ q_posed` (conjugating a unit
+//! quaternion by `R_h` keeps its scalar and rotates its vector part), `log s = log s_posed + δs`.
+//! `δμ` is bounded to `r_max · tanh(· / r_max)` for stability at the extremes. `γ` reads the
+//! canonical mean normalised to the canonical body's bounding box, `[−1, 1]³`.
+//!
+//! [`GatedResidual::compute`] also returns the gated body-frame residual, which Eq. 6's
+//! sparsity term reads.
+
+use crate::networks::ResidualField;
+use burn::tensor::Tensor;
+use splatzoo_models::networks::encoding::frequency_encoding;
+use splatzoo_rasterizer::Splats;
+use splatzoo_train::scene::skinned::skinning::{quaternion_product, unit_quaternions};
+use splatzoo_train::scene::skinned::{NonRigidField, Residual, ResidualInput, ResidualSpace};
+
+/// One person-frame's residual: the field and what conditions it.
+pub struct GatedResidual {
+    pub field: ResidualField,
+    /// `[1, condition]` the guidance's `c_t`.
+    pub condition: Tensor<2>,
+    /// `[1, 1]` `a(σ_t)`.
+    pub amplitude: Tensor<2>,
+    pub levels: usize,
+    /// The canonical body's bounding box (centre, half extent), for `γ`'s normalisation.
+    pub centre: [f32; 3],
+    pub half_extent: [f32; 3],
+    /// Bound of each component of `δμ`, metres.
+    pub max_offset: f64,
+}
+
+/// The last residual: `[G, 3]` body-frame offsets, `[G, 4]` quaternion residuals, `[G, 3]`
+/// log-scale residuals, all gated.
+#[derive(Clone)]
+pub struct Produced {
+    pub offsets: Tensor<2>,
+    pub rotations: Tensor<2>,
+    pub log_scales: Tensor<2>,
+}
+
+impl Produced {
+    /// Eq. 6's `L_sparse` (spec §4): `mean_i(‖δμ_i‖₁ / 0.01 m + ‖δq_i‖₁ + ‖δs_i‖₁)`.
+    pub fn sparsity(&self) -> Tensor<1> {
+        let rows = self.offsets.clone().abs().sum_dim(1) / 0.01
+            + self.rotations.clone().abs().sum_dim(1)
+            + self.log_scales.clone().abs().sum_dim(1);
+        rows.mean()
+    }
+}
+
+/// `γ` of canonical means `[G, 3]` normalised to a box.
+pub fn encode_positions(
+    means: Tensor<2>,
+    centre: [f32; 3],
+    half_extent: [f32; 3],
+    levels: usize,
+) -> Tensor<2> {
+    let device = means.device();
+    let lift = |t: Tensor<2>| if means.is_autodiff() { t.autodiff() } else { t };
+    let c = lift(Tensor::<1>::from_floats(centre, &device).reshape([1, 3]));
+    let h =
+        lift(Tensor::<1>::from_floats(half_extent.map(|v| v.max(1e-6)), &device).reshape([1, 3]));
+    frequency_encoding((means - c) / h, levels)
+}
+
+/// Raw field outputs `[G, 10]` gated by `amplitude` `[1, 1]` into body-frame (δμ, δq, δs).
+pub fn gate_outputs(raw: Tensor<2>, amplitude: Tensor<2>, max_offset: f64) -> Produced {
+    let [g, _] = raw.dims();
+    let gated = raw * amplitude.expand([g, 10]);
+    let offsets = (gated.clone().slice([0..g, 0..3]) / max_offset).tanh() * max_offset;
+    Produced {
+        offsets,
+        rotations: gated.clone().slice([0..g, 3..7]),
+        log_scales: gated.slice([0..g, 7..10]),
+    }
+}
+
+/// Applies body-frame `produced` to posed splats whose body frame has root rotation `root`
+/// `[3, 3]` (Eq. 4's `⊕` then `⊗ T_h`): the additive [`Residual`] the node adds.
+pub fn world_residual(posed: &Splats, produced: &Produced, root: Tensor<2>) -> Residual {
+    let g = posed.len();
+    let device = root.device();
+    let offsets = produced.offsets.clone().matmul(root.clone().transpose());
+    let identity = Tensor::<1>::from_floats([1.0, 0.0, 0.0, 0.0], &device)
+        .reshape([1, 4])
+        .expand([g, 4]);
+    let body = unit_quaternions(identity + produced.rotations.clone());
+    let w = body.clone().slice([0..g, 0..1]);
+    let v = body.slice([0..g, 1..4]).matmul(root.transpose());
+    let world = Tensor::cat(vec![w, v], 1);
+    let rotated = quaternion_product(world, posed.quats.clone());
+    Residual {
+        means: Some(offsets),
+        quats: Some(rotated - posed.quats.clone()),
+        log_scales: Some(produced.log_scales.clone()),
+        opacity_logits: None,
+    }
+}
+
+impl GatedResidual {
+    /// The node's additive residual and the gated body-frame one.
+    pub fn compute(&self, input: &ResidualInput) -> (Residual, Produced) {
+        let g = input.splats.len();
+        let encoded = encode_positions(
+            input.canonical.means.clone(),
+            self.centre,
+            self.half_extent,
+            self.levels,
+        );
+        let [_, c] = self.condition.dims();
+        let condition = self.condition.clone().expand([g, c]);
+        let raw = self.field.forward(Tensor::cat(vec![encoded, condition], 1));
+        let produced = gate_outputs(raw, self.amplitude.clone(), self.max_offset);
+        let root = input
+            .pose
+            .clone()
+            .slice([0..1, 0..1, 0..3, 0..3])
+            .reshape([3, 3]);
+        (world_residual(input.splats, &produced, root), produced)
+    }
+}
+
+impl NonRigidField for GatedResidual {
+    fn space(&self) -> ResidualSpace {
+        ResidualSpace::Posed
+    }
+
+    fn residual(&self, input: &ResidualInput) -> Residual {
+        self.compute(input).0
+    }
+}

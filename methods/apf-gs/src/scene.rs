@@ -1,0 +1,454 @@
+//! A driving scene's graph, built from what the data contains, and one frame of it composed
+//! for a camera: a static background (from the LiDAR outside the tracked people), one skinned
+//! human node per tracked pedestrian (Eq. 2, 4), and one accessory node per person whose
+//! decoupled accessory mask is large enough (Eq. 3, 8), after its human so it can read the
+//! parent joint. Each decision is recorded with its reason.
+
+use crate::accessory::{AccessoryDeformation, AccessoryNode};
+use crate::config::ApfConfig;
+use crate::data::ApfCapture;
+use crate::decouple::wants_accessory;
+use crate::error::ApfError;
+use crate::loss::{PersonTerms, limit_loss, relative_bone_loss};
+use crate::networks::{ApfNetworks, Embeddings};
+use crate::parent::{accessory_returns, initial_points, select_parent};
+use crate::residual::GatedResidual;
+use burn::tensor::{Device, Tensor, TensorData};
+use splatzoo_models::body::BodyModel;
+use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
+use splatzoo_models::body::priors::bone_lengths;
+use splatzoo_models::networks::encoding::frequency_encoding;
+use splatzoo_rasterizer::{Camera, Splats};
+use splatzoo_train::gaussians::GaussianSet;
+use splatzoo_train::scene::skinned::ResidualInput;
+use splatzoo_train::scene::{
+    FrameContext, FrameQuery, GaussianNode, NodeOutput, SceneNode, SkinnedGaussianNode,
+};
+
+/// The background node's name.
+pub const BACKGROUND: &str = "background";
+
+pub fn human_name(h: usize) -> String {
+    format!("human_{h}")
+}
+
+pub fn accessory_name(h: usize) -> String {
+    format!("accessory_{h}")
+}
+
+/// One tracked person's node and what Eq. 4–5 need about them.
+pub struct Human {
+    pub node: SkinnedGaussianNode,
+    /// The canonical body's box for `γ(μ̄)`.
+    pub centre: [f32; 3],
+    pub half_extent: [f32; 3],
+    /// `[J − 1]` the prior's rest bone lengths (Eq. 7's reference).
+    pub bones: Tensor<1>,
+}
+
+pub struct Accessory {
+    pub person: usize,
+    pub node: AccessoryNode,
+    /// Index into the accessory embeddings.
+    pub index: usize,
+    /// The candidates' spreads at parent selection (metres).
+    pub spreads: Vec<(usize, f64)>,
+}
+
+pub struct ApfScene {
+    pub background: GaussianNode,
+    pub humans: Vec<Human>,
+    pub accessories: Vec<Accessory>,
+    pub decisions: Vec<String>,
+}
+
+/// What a frame's composition switched on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stage {
+    /// The residual field and gate (S2).
+    pub residual: bool,
+    /// The accessory network (S2).
+    pub deform: bool,
+}
+
+/// One frame composed for one camera.
+pub struct Composed {
+    pub splats: Splats,
+    /// Rows of each node in `splats`: humans, accessories, background (scene order).
+    pub rows: Vec<std::ops::Range<usize>>,
+    /// `[N]` 1 on human rows, and on accessory rows (for the node-alpha pass).
+    pub human_rows: std::ops::Range<usize>,
+    pub accessory_rows: std::ops::Range<usize>,
+    /// Eq. 6's terms of each person whose residual was active: (person, terms).
+    pub terms: Vec<(usize, PersonTerms)>,
+}
+
+fn box_of(means: &[f32]) -> ([f32; 3], [f32; 3]) {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in means.chunks(3) {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (
+        std::array::from_fn(|a| 0.5 * (lo[a] + hi[a])),
+        std::array::from_fn(|a| (0.5 * (hi[a] - lo[a])).max(1e-3)),
+    )
+}
+
+/// `[J − 1]` bone lengths of `model`'s rest skeleton at the mean shape of `prior`.
+fn rest_bones(model: &BodyModel, betas: &[f64], device: &Device) -> Tensor<1> {
+    let body = BodyTensors::new(model, device);
+    let s = model.shape_count();
+    let b: Vec<f32> = (0..s)
+        .map(|k| betas.get(k).copied().unwrap_or(0.0) as f32)
+        .collect();
+    let j = model.joint_count();
+    let rest = pose(
+        &body,
+        &PoseInput::from_axis_angle(
+            Tensor::from_data(TensorData::new(b, [1, s]), device),
+            Tensor::zeros([1, 3 * j], device),
+            Tensor::zeros([1, 3], device),
+        ),
+    );
+    let lengths = bone_lengths(rest.joints.reshape([1, j, 3]), &model.parents);
+    let [_, n] = lengths.dims();
+    lengths.reshape([n])
+}
+
+impl ApfScene {
+    pub fn build(
+        config: &ApfConfig,
+        capture: &ApfCapture,
+        model: &BodyModel,
+        device: &Device,
+    ) -> Result<Self, ApfError> {
+        let mut decisions = Vec::new();
+        let mut humans = Vec::new();
+        let mut human = config.human.clone();
+        human.smoothness_weight = config.loss.pose;
+        for (h, person) in capture.people.iter().enumerate() {
+            let node = SkinnedGaussianNode::new(
+                &human_name(h),
+                model,
+                &person.prior,
+                capture.trained.clone(),
+                &human,
+                config.human_rates,
+                &splatzoo_train::densify::DensifyConfig {
+                    strategy: splatzoo_train::densify::Strategy::None,
+                    ..Default::default()
+                },
+                1.0,
+                config.seed ^ (0xA9F0_0000 + h as u64),
+                device,
+            )?;
+            let (centre, half_extent) =
+                box_of(&splatzoo_train::host_f32(&node.canonical_set().means));
+            let betas: Vec<f64> = person.prior.frame_betas(0).to_vec();
+            humans.push(Human {
+                bones: rest_bones(model, &betas, device),
+                node,
+                centre,
+                half_extent,
+            });
+        }
+        let mut accessories = Vec::new();
+        for (h, person) in capture.people.iter().enumerate() {
+            if !config.decouple.enabled {
+                continue;
+            }
+            let masks: Vec<_> = capture
+                .train
+                .iter()
+                .map(|&i| &capture.views[i].people[h])
+                .collect();
+            let (wanted, why) = wants_accessory(&config.decouple, &masks);
+            if !wanted {
+                decisions.push(format!("{}: no accessory node ({why})", person.name));
+                continue;
+            }
+            let returns = accessory_returns(capture, h);
+            let Some((joint, spreads)) = select_parent(person, &returns) else {
+                decisions.push(format!(
+                    "{}: no accessory node (accessory mask seen but too few LiDAR returns on it)",
+                    person.name
+                ));
+                continue;
+            };
+            let points = initial_points(
+                person,
+                &returns,
+                joint,
+                config.attach.initial_gaussians,
+                config.seed ^ (0xACC0_0000 + h as u64),
+            );
+            let set = GaussianSet::from_points(
+                &points.positions,
+                &points.colours,
+                &points.sigmas,
+                device,
+            );
+            let mut node = AccessoryNode::new(
+                &accessory_name(h),
+                &human_name(h),
+                joint,
+                set,
+                config.background_rates,
+                config.attach.rates,
+                &config.accessory_densify,
+                config.seed ^ (0xACC1_0000 + h as u64),
+            );
+            node.detach_parent = config.attach.detach_parent;
+            decisions.push(format!(
+                "{}: accessory node on joint {joint} ({why}; {} LiDAR returns; parent spread {})",
+                person.name,
+                points.len(),
+                spreads
+                    .iter()
+                    .map(|(k, s)| format!("{k}: {:.0} mm", 1e3 * s))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+            let index = accessories.len();
+            accessories.push(Accessory {
+                person: h,
+                node,
+                index,
+                spreads,
+            });
+        }
+        if !config.decouple.enabled {
+            decisions.push(
+                "decoupling off: humans supervised by M_coarse, no accessory nodes (Table II's w/o decoupling)"
+                    .into(),
+            );
+        }
+        let points = &capture.scene_points;
+        if points.is_empty() {
+            return Err(ApfError::input(
+                "background",
+                "no LiDAR return outside the tracked people to start the background from",
+            ));
+        }
+        let set =
+            GaussianSet::from_points(&points.positions, &points.colours, &points.sigmas, device);
+        decisions.push(format!(
+            "background node from {} LiDAR returns outside the tracked people",
+            points.len()
+        ));
+        let background = GaussianNode::new(
+            BACKGROUND,
+            set,
+            config.background_rates,
+            &config.background_densify,
+            scene_extent(points),
+            config.seed ^ 0xB6B6_0000,
+        );
+        Ok(Self {
+            background,
+            humans,
+            accessories,
+            decisions,
+        })
+    }
+
+    pub fn gaussians(&self) -> usize {
+        self.background.gaussians()
+            + self
+                .humans
+                .iter()
+                .map(|h| h.node.gaussians())
+                .sum::<usize>()
+            + self
+                .accessories
+                .iter()
+                .map(|a| a.node.gaussians())
+                .sum::<usize>()
+    }
+
+    pub fn begin_step(&mut self) {
+        self.background.begin_step();
+        for h in &mut self.humans {
+            h.node.begin_step();
+        }
+        for a in &mut self.accessories {
+            a.node.begin_step();
+        }
+    }
+
+    /// Every node in graph order (humans, accessories, background).
+    pub fn nodes_mut(&mut self) -> Vec<&mut dyn SceneNode> {
+        let mut nodes: Vec<&mut dyn SceneNode> = Vec::new();
+        for h in &mut self.humans {
+            nodes.push(&mut h.node);
+        }
+        for a in &mut self.accessories {
+            nodes.push(&mut a.node);
+        }
+        nodes.push(&mut self.background);
+        nodes
+    }
+
+    pub fn nodes(&self) -> Vec<&dyn SceneNode> {
+        let mut nodes: Vec<&dyn SceneNode> = Vec::new();
+        for h in &self.humans {
+            nodes.push(&h.node);
+        }
+        for a in &self.accessories {
+            nodes.push(&a.node);
+        }
+        nodes.push(&self.background);
+        nodes
+    }
+}
+
+/// The radius of the points' bounding box (3DGS's scene extent).
+fn scene_extent(points: &splatzoo_train::views::InitPoints) -> f64 {
+    let (_, half) = box_of(
+        &points
+            .positions
+            .iter()
+            .flatten()
+            .copied()
+            .collect::<Vec<_>>(),
+    );
+    f64::from((half[0] * half[0] + half[1] * half[1] + half[2] * half[2]).sqrt()) * 1.1
+}
+
+/// What conditions one person's residual at one frame.
+pub struct Guided {
+    /// `[1, 1]` σ and `[1, 1]` its logit.
+    pub sigma: Tensor<2>,
+    pub condition: Tensor<2>,
+}
+
+/// `γ(t)` of `t / duration`, `[1, 1 + 2 L]`.
+pub fn time_encoding(time: f64, duration: f64, levels: usize, device: &Device) -> Tensor<2> {
+    let t = (time / duration.max(1e-9)) as f32;
+    frequency_encoding(
+        Tensor::<2>::from_data(TensorData::new(vec![t], [1, 1]), device),
+        levels,
+    )
+}
+
+/// Inputs of one frame's composition.
+pub struct FrameInputs<'a> {
+    pub camera: &'a Camera,
+    pub frame: usize,
+    pub time: f64,
+    /// Per tracked person: the guidance output, where the residual is on for them.
+    pub guided: &'a [Option<Guided>],
+    pub nets: &'a ApfNetworks,
+    pub stage: Stage,
+    pub duration: f64,
+    pub in_step: bool,
+}
+
+impl ApfScene {
+    /// The frame's Gaussians from every node (the step's leaves inside a step) and Eq. 6's
+    /// per-person terms.
+    pub fn compose(&self, input: &FrameInputs, config: &ApfConfig) -> Composed {
+        let query = FrameQuery {
+            camera: input.camera,
+            frame: input.frame,
+            time: input.time,
+        };
+        let mut outputs: Vec<(String, NodeOutput)> = Vec::new();
+        let mut terms = Vec::new();
+        for (h, human) in self.humans.iter().enumerate() {
+            let node = &human.node;
+            let canonical = match node.canonical_leaves() {
+                Some(l) if input.in_step => l.splats(),
+                _ => node.canonical_set().splats(),
+            };
+            let posed = node.posed(canonical.clone(), input.frame);
+            let mut splats = posed.splats;
+            if let Some(guided) = input.guided.get(h).and_then(|g| g.as_ref()) {
+                let amplitude = config.gate.amplitude(guided.sigma.clone());
+                let field = GatedResidual {
+                    field: input.nets.residual.clone(),
+                    condition: guided.condition.clone(),
+                    amplitude,
+                    levels: config.network.position_levels,
+                    centre: human.centre,
+                    half_extent: human.half_extent,
+                    max_offset: config.residual.max_offset,
+                };
+                let (residual, produced) = field.compute(&ResidualInput {
+                    splats: &splats,
+                    canonical: &canonical,
+                    frame: input.frame,
+                    pose: &posed.pose.rotations,
+                });
+                splats = residual.apply(splats);
+                let joints = node.regress_joints(splats.means.clone());
+                terms.push((
+                    h,
+                    PersonTerms {
+                        sigma: guided.sigma.clone(),
+                        sparsity: produced.sparsity(),
+                        bone: relative_bone_loss(
+                            joints,
+                            &node.model().parents,
+                            if input.in_step {
+                                human.bones.clone().autodiff()
+                            } else {
+                                human.bones.clone()
+                            },
+                        ),
+                        limit: limit_loss(posed.pose.rotations.clone()),
+                    },
+                ));
+            }
+            outputs.push((
+                human_name(h),
+                NodeOutput {
+                    splats,
+                    joints: Some(posed.joints.homogeneous()),
+                    bounds: None,
+                },
+            ));
+        }
+        let humans_end: usize = outputs.iter().map(|(_, o)| o.splats.len()).sum();
+        for accessory in &self.accessories {
+            let deformation = input.stage.deform.then(|| AccessoryDeformation {
+                field: input.nets.accessory.clone(),
+                embedding: Embeddings::row(&input.nets.embeddings.accessory, accessory.index),
+                position_levels: config.network.position_levels,
+                time_levels: config.network.time_levels,
+                duration: input.duration,
+            });
+            let output = accessory.node.render_with(
+                &query,
+                &FrameContext { outputs: &outputs },
+                deformation.as_ref(),
+            );
+            outputs.push((accessory.node.name().to_owned(), output));
+        }
+        let accessories_end: usize = outputs.iter().map(|(_, o)| o.splats.len()).sum();
+        let background = self
+            .background
+            .render(&query, &FrameContext { outputs: &outputs });
+        outputs.push((BACKGROUND.to_owned(), background));
+        let mut rows = Vec::new();
+        let mut start = 0;
+        for (_, o) in &outputs {
+            rows.push(start..start + o.splats.len());
+            start += o.splats.len();
+        }
+        let splats = splatzoo_train::scene::concatenate(
+            outputs.into_iter().map(|(_, o)| o.splats).collect(),
+        );
+        Composed {
+            splats,
+            rows,
+            human_rows: 0..humans_end,
+            accessory_rows: humans_end..accessories_end,
+            terms,
+        }
+    }
+}
