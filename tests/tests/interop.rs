@@ -2,9 +2,10 @@
 //! project's readers (`.ply`, checkpoints with their format tags, `metrics.json` as the
 //! harness's history, PNG renders, ONNX graphs in tract), and checkpoints carried from one
 //! process to another (resumed bit-exactly on the CPU, read by `render`, `drive-nlf` and
-//! `animate-avatar`).
+//! `animate-avatar`; `train-apf` resumed across processes).
 
 use burn::tensor::Device;
+use splatzoo_apf_gs::trainer::ApfTrainer;
 use splatzoo_nlf_gs::onnx;
 use splatzoo_nlf_gs::trainer::NlfTrainer;
 use splatzoo_train::avatar::AvatarTrainer;
@@ -304,4 +305,81 @@ fn train_avatar_default_outputs_read_back_and_animate() {
         "{}",
         text(&refused)
     );
+}
+
+/// `train-apf` on a small driving scene: its outputs read back, and a run stopped and resumed in
+/// another process ends bit for bit where an uninterrupted one does.
+#[test]
+fn train_apf_outputs_read_back_and_resume_across_processes() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = [
+        "--iterations",
+        "3",
+        "--set",
+        "warmup=1",
+        "--set",
+        "data.frames=15",
+        "--set",
+        "data.width=128",
+        "--set",
+        "data.height=72",
+        "--set",
+        "data.supersample=1",
+        "--set",
+        "data.background_points=2000",
+        "--set",
+        "attach.initial_gaussians=200",
+        "--set",
+        "repose_frames=2",
+    ];
+    let with = |extra: &[&str]| -> Vec<String> {
+        small.iter().chain(extra).map(|s| s.to_string()).collect()
+    };
+    let straight = with(&["--name", "a"]);
+    let out = run(dir.path(), "train-apf", &strs(&straight));
+    assert!(out.status.success(), "{}", text(&out));
+    let run_dir = dir.path().join("runs/apf/a");
+    let saved = run_dir.join("checkpoint.safetensors");
+    check_format(&Checkpoint::read(&saved).unwrap(), ApfTrainer::FORMAT).unwrap();
+    let metrics = history(&run_dir.join("metrics.json"));
+    assert_eq!(metrics.method, "apf");
+    let last = metrics
+        .evaluations
+        .last()
+        .expect("an evaluation at the end");
+    assert!(last.scores.psnr.is_finite());
+    assert!(last.extra["novel_view"]["human_true"]["psnr"].is_number());
+    let background = read_ply(&run_dir.join("background.ply"), &Device::flex()).unwrap();
+    assert!(!background.is_empty());
+    let scene = read_ply(&run_dir.join("scene_frame_0014.ply"), &Device::flex()).unwrap();
+    assert_eq!(Some(scene.len() as u64), last.extra["gaussians"].as_u64());
+    assert_eq!(renders_decode(&run_dir.join("renders")), 3);
+    for (stem, _, _) in splatzoo_apf_gs::onnx::GRAPHS {
+        let graph = run_dir.join(format!("onnx/{stem}.onnx"));
+        let vectors = run_dir.join(format!("onnx/{stem}.vectors.safetensors"));
+        assert!(onnx::verify(&graph, &vectors).unwrap() < 1e-3, "{stem}");
+    }
+    let reposed: Vec<_> = std::fs::read_dir(run_dir.join("reposed"))
+        .unwrap()
+        .collect();
+    assert!(
+        !reposed.is_empty(),
+        "a pedestrian with an accessory re-posed"
+    );
+
+    let first = with(&["--name", "b", "--stop-after", "2"]);
+    let stopped = run(dir.path(), "train-apf", &strs(&first));
+    assert_eq!(stopped.status.code(), Some(130), "{}", text(&stopped));
+    let partial = dir.path().join("runs/apf/b/checkpoint.safetensors");
+    let second = with(&["--name", "c", "--resume", partial.to_str().unwrap()]);
+    let resumed = run(dir.path(), "train-apf", &strs(&second));
+    assert!(resumed.status.success(), "{}", text(&resumed));
+    same_tensors(
+        &saved,
+        &dir.path().join("runs/apf/c/checkpoint.safetensors"),
+    );
+}
+
+fn strs(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
 }

@@ -28,6 +28,8 @@ pub enum TrainError {
     Weights(#[from] WeightsError),
     #[error(transparent)]
     Body(#[from] BodyModelError),
+    #[error(transparent)]
+    Onnx(#[from] crate::onnx::OnnxError),
     /// A knob out of its range: the key and what it must be.
     #[error("configuration: {0}")]
     Config(String),

@@ -9,7 +9,8 @@
 //!   ([`lpips`]).
 //! - Data and files: training views of static scenes ([`views`]), checkpoints
 //!   ([`checkpoint`]), configuration files ([`config`]), backends ([`backend`]), run
-//!   directories ([`run_dir`]), image outputs ([`images`]), INRIA-layout `.ply` ([`ply`]).
+//!   directories ([`run_dir`]), image outputs ([`images`]), INRIA-layout `.ply` ([`ply`]),
+//!   ONNX graphs checked in tract ([`onnx`]).
 //! - Animatable avatars from video on the skinned node ([`avatar`]; the `train-avatar` binary).
 //! - Static-scene 3D Gaussian splatting, the scene-prior stage the methods reuse
 //!   ([`static_scene`]; the `train-3dgs` and `render` binaries).
@@ -29,6 +30,7 @@ pub mod images;
 pub mod loss;
 pub mod lpips;
 pub mod module_adam;
+pub mod onnx;
 pub mod optimizer;
 pub mod ply;
 pub mod run_dir;

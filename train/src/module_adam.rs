@@ -89,7 +89,8 @@ impl ModuleAdam {
     }
 
     /// Writes the moments as `optimizer.<path>.exp_avg` and `.exp_avg_sq`, in the shapes of
-    /// `module`'s parameters, and the step count as `optimizer.steps`.
+    /// `module`'s parameters, the step count as `optimizer.steps` and the parameters that have
+    /// moments (those that have had a gradient) as `optimizer.paths`.
     pub fn save<M: Module>(&self, module: &M, checkpoint: &mut Checkpoint) {
         let shapes = shapes(module);
         let mut steps = self.pending_steps;
@@ -115,6 +116,14 @@ impl ModuleAdam {
             put(path, first.clone(), second.clone());
         }
         checkpoint.put_meta("optimizer.steps", steps);
+        // Which parameters have moments: one that never had a gradient has none yet.
+        let paths: Vec<&str> = self
+            .states
+            .keys()
+            .chain(self.pending.keys())
+            .map(String::as_str)
+            .collect();
+        checkpoint.put_meta("optimizer.paths", paths.join(","));
     }
 
     /// The moments [`save`](Self::save) wrote, for every parameter of `module`, each checked
@@ -129,8 +138,28 @@ impl ModuleAdam {
             name: name.to_owned(),
             problem,
         };
+        // Checkpoints that list their parameters with moments hold exactly those; older ones
+        // hold every parameter's.
+        let listed: Option<Vec<String>> = checkpoint.metadata.get("optimizer.paths").map(|p| {
+            p.split(',')
+                .filter(|s| !s.is_empty())
+                .map(str::to_owned)
+                .collect()
+        });
+        let shapes = shapes(module);
+        if let Some(listed) = &listed
+            && let Some(unknown) = listed.iter().find(|p| !shapes.contains_key(*p))
+        {
+            return Err(entry(
+                "optimizer.paths",
+                format!("`{unknown}` is not a parameter of the network"),
+            ));
+        }
         let mut pending = BTreeMap::new();
-        for (path, shape) in shapes(module) {
+        for (path, shape) in shapes {
+            if listed.as_ref().is_some_and(|l| !l.contains(&path)) {
+                continue;
+            }
             let read = |suffix: &str| -> Result<Vec<f32>, CheckpointError> {
                 let name = format!("optimizer.{path}.{suffix}");
                 let (stored, values) = checkpoint

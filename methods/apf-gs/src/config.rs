@@ -128,6 +128,12 @@ pub struct ApfConfig {
     pub checkpoint_every: usize,
     pub seed: u64,
     pub lpips_weights: Option<PathBuf>,
+    /// Export `C`, `F_φ` and `D_ψ` as ONNX graphs at the end (checked in tract).
+    pub onnx: bool,
+    /// At the end, re-pose every pedestrian with an accessory for this many frames (0: none)
+    /// of a built-in walk, or of `repose_poses` (an AMASS-layout `.npz`, z-up).
+    pub repose_frames: usize,
+    pub repose_poses: Option<PathBuf>,
     /// Stage S1 (LBS only, pose refinement on) lasts this many steps; then the residual field,
     /// the gate and the accessory deformation switch on (S2).
     pub warmup: usize,
@@ -169,6 +175,9 @@ impl Default for ApfConfig {
             checkpoint_every: 500,
             seed: 0,
             lpips_weights: None,
+            onnx: true,
+            repose_frames: 24,
+            repose_poses: None,
             warmup: 150,
             sh_degree: 3,
             human_sh_degree: 1,
@@ -183,6 +192,7 @@ impl Default for ApfConfig {
             network_rates: NetworkRates::default(),
             human: SkinnedConfig {
                 placement: Placement::Vertices,
+                initial_opacity: 0.99,
                 refine_sequence_offset: false,
                 refine_shape: false,
                 smoothness_weight: 0.0,

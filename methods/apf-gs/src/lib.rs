@@ -20,7 +20,7 @@
 //!
 //! The trainer is a [`splatzoo_train::harness::Method`] ([`trainer::ApfTrainer`],
 //! configuration [`config::ApfConfig`]); the synthetic driving capture is [`data`]; scores are
-//! [`eval`]. The crate's `README.md` lists every choice the paper leaves open, with its knob.
+//! [`eval`]; the ONNX export of `C`, `F_φ` and `D_ψ` is [`onnx`]. The crate's `README.md` lists every choice the paper leaves open, with its knob.
 
 pub mod accessory;
 pub mod boxes;
@@ -34,7 +34,9 @@ pub mod guide;
 pub mod loss;
 mod method;
 pub mod networks;
+pub mod onnx;
 pub mod parent;
+pub mod repose;
 pub mod residual;
 pub mod scene;
 pub mod trainer;

@@ -7,7 +7,8 @@
 //! `L_bone` is computed on joints regressed from the *deformed* human (LBS ⊕ Δ): under pure
 //! forward kinematics with one shape the bone lengths do not depend on θ, so the term would be
 //! a constant. Bone lengths are invariant to the rigid `T_h`, so regressing from world-space
-//! Gaussians equals regressing before `T_h`. Lengths are relative to the prior's rest skeleton.
+//! Gaussians equals regressing before `T_h`. Lengths are relative to those of the same frame's
+//! LBS-only regressed joints, so the term reads only what Δ stretches.
 //! `L_limit` is the squared excess of the refined local axis-angles beyond the AAOS ranges
 //! (`splatzoo_models::body::priors`). `L_pose` is the skinned node's temporal smoothness.
 

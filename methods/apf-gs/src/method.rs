@@ -4,7 +4,7 @@
 use crate::config::ApfConfig;
 use crate::eval::{HUMAN_REGION, spearman};
 use crate::networks::ApfNetworks;
-use crate::scene::{BACKGROUND, FrameInputs};
+use crate::scene::FrameInputs;
 use crate::trainer::{ApfArgs, ApfTrainer, NetworkOptimizers, OPTIMIZERS};
 use burn::module::Module;
 use burn::tensor::Device;
@@ -73,14 +73,8 @@ fn load_networks(
         .collect();
     let file = WeightFile::new(checkpoint.origin.clone(), tensors);
     let nets = load_module(fresh, &file)?.train();
-    // An optimiser that never stepped (its network had no gradient yet) saved no moments.
     let load = |name: &str, f: &dyn Fn(&Checkpoint) -> Result<ModuleAdam, CheckpointError>| {
-        let view = optimizer_view(checkpoint, name);
-        if view.tensors.is_empty() {
-            Ok(ModuleAdam::new(NETWORK_ADAM))
-        } else {
-            f(&view)
-        }
+        f(&optimizer_view(checkpoint, name))
     };
     let optimizers = NetworkOptimizers {
         encoder: load("encoder", &|c| {
@@ -226,11 +220,12 @@ impl Method for ApfTrainer {
     }
 
     /// `.ply` files (each node's canonical Gaussians and the whole scene posed at the first
-    /// held-out timestep), held-out renders (render | truth) and the σ trace.
+    /// held-out timestep), held-out renders (render | truth), the σ trace and the ONNX graphs
+    /// of `C`, `F_φ` and `D_ψ` checked in tract.
     fn finish(
         &self,
         run: &Path,
-        _say: &mut dyn Say,
+        say: &mut dyn Say,
     ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError> {
         write_ply(&run.join("background.ply"), &self.scene.background.set)?;
         for (h, human) in self.scene.humans.iter().enumerate() {
@@ -308,7 +303,90 @@ impl Method for ApfTrainer {
                 serde_json::to_value(&trace).expect("plain data"),
             );
         }
-        let _ = BACKGROUND;
+        let mut drifts = serde_json::Map::new();
+        for a in &self.scene.accessories {
+            if self.config.repose_frames == 0 {
+                break;
+            }
+            let h = a.person;
+            let motion = match &self.config.repose_poses {
+                Some(path) => splatzoo_datasets::pose_sequence::load_driving_sequence(
+                    path,
+                    self.model.joint_count(),
+                    self.model.shape_count(),
+                    splatzoo_datasets::pose_sequence::UpAxis::Z,
+                )?,
+                None => crate::repose::default_motion(self, h, self.config.repose_frames),
+            };
+            let clip = crate::repose::repose(self, h, &motion, [256, 256])?;
+            let dir = run.join(format!("reposed/person_{h}"));
+            std::fs::create_dir_all(&dir).map_err(|e| {
+                splatzoo_datasets::DatasetError::file(&dir, format!("cannot create ({e})"))
+            })?;
+            for (t, frame) in clip.frames.iter().enumerate() {
+                write_png(&dir.join(format!("frame_{t:04}.png")), frame)?;
+            }
+            splatzoo_train::images::write_gif(&dir.join("animation.gif"), &clip.frames, 24)?;
+            let first = clip
+                .accessory_in_parent
+                .first()
+                .copied()
+                .unwrap_or_default();
+            let drift = clip
+                .accessory_in_parent
+                .iter()
+                .map(|p| {
+                    (0..3)
+                        .map(|c| (p[c] - first[c]).abs())
+                        .fold(0.0f32, f32::max)
+                })
+                .fold(0.0f32, f32::max);
+            drifts.insert(format!("person_{h}"), f64::from(drift).into());
+            say.say(&format!(
+                "re-posed pedestrian {h} over {} frames with their accessory: {}",
+                clip.frames.len(),
+                dir.display()
+            ));
+        }
+        if !drifts.is_empty() {
+            summary.insert("reposed_accessory_drift_m".into(), drifts.into());
+        }
+        if self.config.onnx {
+            let gaussians = self.scene.humans.first().map_or(1, |h| h.node.gaussians());
+            let graphs = crate::onnx::export(
+                &self.nets.valid(),
+                &self.config.network,
+                gaussians,
+                256,
+                &run.join("onnx"),
+                &self.background.device(),
+            )?;
+            let mut errors = serde_json::Map::new();
+            for g in &graphs {
+                say.say(&format!(
+                    "exported {} with test vectors; tract reproduces Burn to {:.1e} (relative)",
+                    g.graph.display(),
+                    g.relative_error
+                ));
+                if g.relative_error > 1e-3 {
+                    return Err(crate::error::ApfError::input(
+                        g.graph.display().to_string(),
+                        format!(
+                            "tract disagrees with Burn by {:.1e} (relative), above 1e-3",
+                            g.relative_error
+                        ),
+                    )
+                    .into());
+                }
+                let stem = g
+                    .graph
+                    .file_stem()
+                    .and_then(|s| s.to_str())
+                    .unwrap_or("graph");
+                errors.insert(stem.to_owned(), f64::from(g.relative_error).into());
+            }
+            summary.insert("onnx_relative_error".into(), errors.into());
+        }
         Ok(summary)
     }
 }

@@ -15,7 +15,6 @@ use crate::parent::{accessory_returns, initial_points, select_parent};
 use crate::residual::GatedResidual;
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::body::BodyModel;
-use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
 use splatzoo_models::body::priors::bone_lengths;
 use splatzoo_models::networks::encoding::frequency_encoding;
 use splatzoo_rasterizer::{Camera, Splats};
@@ -42,8 +41,6 @@ pub struct Human {
     /// The canonical body's box for `γ(μ̄)`.
     pub centre: [f32; 3],
     pub half_extent: [f32; 3],
-    /// `[J − 1]` the prior's rest bone lengths (Eq. 7's reference).
-    pub bones: Tensor<1>,
 }
 
 pub struct Accessory {
@@ -98,27 +95,6 @@ fn box_of(means: &[f32]) -> ([f32; 3], [f32; 3]) {
     )
 }
 
-/// `[J − 1]` bone lengths of `model`'s rest skeleton at the mean shape of `prior`.
-fn rest_bones(model: &BodyModel, betas: &[f64], device: &Device) -> Tensor<1> {
-    let body = BodyTensors::new(model, device);
-    let s = model.shape_count();
-    let b: Vec<f32> = (0..s)
-        .map(|k| betas.get(k).copied().unwrap_or(0.0) as f32)
-        .collect();
-    let j = model.joint_count();
-    let rest = pose(
-        &body,
-        &PoseInput::from_axis_angle(
-            Tensor::from_data(TensorData::new(b, [1, s]), device),
-            Tensor::zeros([1, 3 * j], device),
-            Tensor::zeros([1, 3], device),
-        ),
-    );
-    let lengths = bone_lengths(rest.joints.reshape([1, j, 3]), &model.parents);
-    let [_, n] = lengths.dims();
-    lengths.reshape([n])
-}
-
 impl ApfScene {
     pub fn build(
         config: &ApfConfig,
@@ -148,9 +124,7 @@ impl ApfScene {
             )?;
             let (centre, half_extent) =
                 box_of(&splatzoo_train::host_f32(&node.canonical_set().means));
-            let betas: Vec<f64> = person.prior.frame_betas(0).to_vec();
             humans.push(Human {
-                bones: rest_bones(model, &betas, device),
                 node,
                 centre,
                 half_extent,
@@ -360,55 +334,24 @@ impl ApfScene {
         let mut outputs: Vec<(String, NodeOutput)> = Vec::new();
         let mut terms = Vec::new();
         for (h, human) in self.humans.iter().enumerate() {
-            let node = &human.node;
-            let canonical = match node.canonical_leaves() {
-                Some(l) if input.in_step => l.splats(),
-                _ => node.canonical_set().splats(),
-            };
-            let posed = node.posed(canonical.clone(), input.frame);
-            let mut splats = posed.splats;
-            if let Some(guided) = input.guided.get(h).and_then(|g| g.as_ref()) {
-                let amplitude = config.gate.amplitude(guided.sigma.clone());
-                let field = GatedResidual {
-                    field: input.nets.residual.clone(),
-                    condition: guided.condition.clone(),
-                    amplitude,
-                    levels: config.network.position_levels,
-                    centre: human.centre,
-                    half_extent: human.half_extent,
-                    max_offset: config.residual.max_offset,
-                };
-                let (residual, produced) = field.compute(&ResidualInput {
-                    splats: &splats,
-                    canonical: &canonical,
-                    frame: input.frame,
-                    pose: &posed.pose.rotations,
-                });
-                splats = residual.apply(splats);
-                let joints = node.regress_joints(splats.means.clone());
-                terms.push((
-                    h,
-                    PersonTerms {
-                        sigma: guided.sigma.clone(),
-                        sparsity: produced.sparsity(),
-                        bone: relative_bone_loss(
-                            joints,
-                            &node.model().parents,
-                            if input.in_step {
-                                human.bones.clone().autodiff()
-                            } else {
-                                human.bones.clone()
-                            },
-                        ),
-                        limit: limit_loss(posed.pose.rotations.clone()),
-                    },
-                ));
+            let guided = input.guided.get(h).and_then(|g| g.as_ref());
+            let posed = pose_human(
+                &human.node,
+                human,
+                input.frame,
+                guided,
+                input.nets,
+                config,
+                input.in_step,
+            );
+            if let Some(t) = posed.terms {
+                terms.push((h, t));
             }
             outputs.push((
                 human_name(h),
                 NodeOutput {
-                    splats,
-                    joints: Some(posed.joints.homogeneous()),
+                    splats: posed.splats,
+                    joints: Some(posed.joints),
                     bounds: None,
                 },
             ));
@@ -450,5 +393,80 @@ impl ApfScene {
             accessory_rows: humans_end..accessories_end,
             terms,
         }
+    }
+}
+
+/// One person at one frame: their Gaussians, joints and Eq. 6's terms.
+pub struct PosedHuman {
+    pub splats: Splats,
+    /// `[J, 4, 4]` world transforms of the joints (what an accessory hangs from).
+    pub joints: Tensor<3>,
+    /// Eq. 6's terms, where the residual was on.
+    pub terms: Option<PersonTerms>,
+}
+
+/// `node` (person `human`'s, or a re-posed copy) at `frame`: LBS with the frame's pose, then
+/// Eq. 4's residual where `guided` is given.
+pub fn pose_human(
+    node: &SkinnedGaussianNode,
+    human: &Human,
+    frame: usize,
+    guided: Option<&Guided>,
+    nets: &ApfNetworks,
+    config: &ApfConfig,
+    in_step: bool,
+) -> PosedHuman {
+    let canonical = match node.canonical_leaves() {
+        Some(l) if in_step => l.splats(),
+        _ => node.canonical_set().splats(),
+    };
+    let posed = node.posed(canonical.clone(), frame);
+    let joints = posed.joints.homogeneous();
+    let Some(guided) = guided else {
+        return PosedHuman {
+            splats: posed.splats,
+            joints,
+            terms: None,
+        };
+    };
+    let field = GatedResidual {
+        field: nets.residual.clone(),
+        condition: guided.condition.clone(),
+        amplitude: config.gate.amplitude(guided.sigma.clone()),
+        levels: config.network.position_levels,
+        centre: human.centre,
+        half_extent: human.half_extent,
+        max_offset: config.residual.max_offset,
+    };
+    let (residual, produced) = field.compute(&ResidualInput {
+        splats: &posed.splats,
+        canonical: &canonical,
+        frame,
+        pose: &posed.pose.rotations,
+    });
+    // Eq. 7's reference: the bones of the joints regressed from this frame's LBS alone, so the
+    // term reads only what Δ stretches (regressed joints of a posed mesh are not the skeleton's
+    // exactly, and a reference from the rest skeleton would make the term a function of θ
+    // alone, pushing σ to 1 whatever Δ does).
+    let j = node.model().joint_count() - 1;
+    let unstretched = bone_lengths(
+        node.regress_joints(posed.splats.means.clone().detach())
+            .detach()
+            .reshape([1, j + 1, 3]),
+        &node.model().parents,
+    )
+    .reshape([j]);
+    let splats = residual.apply(posed.splats);
+    let regressed = node.regress_joints(splats.means.clone());
+    let terms = PersonTerms {
+        sigma: guided.sigma.clone(),
+        sparsity: produced.sparsity(),
+        bone: relative_bone_loss(regressed, &node.model().parents, unstretched),
+        limit: limit_loss(posed.pose.rotations.clone()),
+    };
+    PosedHuman {
+        splats,
+        joints,
+        terms: Some(terms),
     }
 }

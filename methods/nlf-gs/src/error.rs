@@ -18,6 +18,15 @@ pub enum NlfError {
     OnnxMismatch { encoder: f64, decoder: f64 },
 }
 
+impl From<splatzoo_train::onnx::OnnxError> for NlfError {
+    fn from(e: splatzoo_train::onnx::OnnxError) -> Self {
+        NlfError::Onnx {
+            file: e.file,
+            problem: e.problem,
+        }
+    }
+}
+
 impl NlfError {
     pub(crate) fn onnx(file: &std::path::Path, problem: impl std::fmt::Display) -> Self {
         NlfError::Onnx {

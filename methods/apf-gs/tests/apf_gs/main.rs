@@ -6,6 +6,8 @@
 mod accessory;
 mod decouple;
 mod gate;
+mod objective;
+mod onnx;
 mod residual;
 mod trainer;
 

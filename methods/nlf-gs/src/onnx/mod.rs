@@ -19,9 +19,8 @@
 //! `features.k`, …): inputs and Burn's outputs, which any runtime can be checked against. `anchors.safetensors`
 //! holds the Gaussians' faces and barycentric weights, so the query can be rebuilt elsewhere.
 //! The ONNX bytes are written atomically. [`verify`] runs each graph on its vectors in tract (a
-//! pure-Rust ONNX runtime), so every export is checked against Burn before it is reported.
-
-mod names;
+//! pure-Rust ONNX runtime), so every export is checked against Burn before it is reported;
+//! naming, writing and checking graphs are the engine's ([`splatzoo_train::onnx`]).
 
 use crate::NlfError;
 use crate::decoder::Decoder;
@@ -31,6 +30,7 @@ use burn_onnx::export::{AxisSpec, InputSpec, OnnxExporter};
 use splatzoo_models::anchor::MeshAnchors;
 use splatzoo_models::networks::fpn::ResNetFpn;
 use splatzoo_train::checkpoint::Checkpoint;
+use splatzoo_train::onnx::write_graph;
 use std::path::{Path, PathBuf};
 
 /// The encoder graph's input and output names.
@@ -122,9 +122,7 @@ pub fn export(
         )
         .map_err(|e| NlfError::onnx(&files.encoder, format!("exporting the encoder: {e}")))?;
     let (input, output) = ENCODER_IO;
-    let encoder = names::rename_graph_io(encoder.as_bytes(), &[input], &[output])
-        .map_err(|e| NlfError::onnx(&files.encoder, e))?;
-    write(&files.encoder, &encoder)?;
+    write_graph(encoder.as_bytes(), &[input], &[output], &files.encoder)?;
     let decoder = OnnxExporter::new()
         .export(
             &model.decoder,
@@ -133,9 +131,7 @@ pub fn export(
         )
         .map_err(|e| NlfError::onnx(&files.decoder, format!("exporting the decoder: {e}")))?;
     let (input, output) = DECODER_IO;
-    let decoder = names::rename_graph_io(decoder.as_bytes(), &[input], &[output])
-        .map_err(|e| NlfError::onnx(&files.decoder, e))?;
-    write(&files.decoder, &decoder)?;
+    write_graph(decoder.as_bytes(), &[input], &[output], &files.decoder)?;
 
     let (input, output) = ENCODER_IO;
     let mut vectors = Checkpoint::default();
@@ -254,72 +250,4 @@ the outputs to about 1e-4.
     )
 }
 
-/// Runs the one-input ONNX graph at `path` in tract on an f32 input of `shape` (which resolves
-/// any symbolic axis), fed by the graph's input name; returns the first output's shape and
-/// values.
-pub fn run_graph(
-    path: &Path,
-    shape: &[usize],
-    values: &[f32],
-) -> Result<(Vec<usize>, Vec<f32>), NlfError> {
-    let (inputs, _) = io_names(path)?;
-    let [input] = inputs.as_slice() else {
-        return Err(NlfError::onnx(
-            path,
-            format!("{} graph inputs, expected one", inputs.len()),
-        ));
-    };
-    let mut outputs = names::run_graph_named(path, &[(input.as_str(), shape, values)])
-        .map_err(|e| NlfError::onnx(path, e))?;
-    let (_, shape, values) = outputs.swap_remove(0);
-    Ok((shape, values))
-}
-
-/// The graph's input and output names, in graph order.
-pub fn io_names(path: &Path) -> Result<(Vec<String>, Vec<String>), NlfError> {
-    let bytes =
-        std::fs::read(path).map_err(|e| NlfError::onnx(path, format!("cannot read ({e})")))?;
-    names::graph_io_names(&bytes).map_err(|e| NlfError::onnx(path, e))
-}
-
-/// Largest `|a − b| / (1 + |b|)`.
-pub fn max_relative_difference(a: &[f32], b: &[f32]) -> f32 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs() / (1.0 + y.abs()))
-        .fold(0.0, f32::max)
-}
-
-/// Runs `graph` on every vector in `vectors` (`<input name>.k` → `<output name>.k`, the
-/// names read from the graph); returns the largest relative difference from the stored
-/// outputs, or what went wrong (a missing vector, a shape that differs, a graph tract cannot
-/// run).
-pub fn verify(graph: &Path, vectors: &Path) -> Result<f32, NlfError> {
-    let stored = Checkpoint::read(vectors).map_err(splatzoo_train::TrainError::from)?;
-    let (inputs, outputs) = io_names(graph)?;
-    let (Some(input), Some(output)) = (inputs.first(), outputs.first()) else {
-        return Err(NlfError::onnx(graph, "the graph has no input or no output"));
-    };
-    let mut worst = 0.0f32;
-    for k in 0.. {
-        let Some((in_shape, values)) = stored.tensors.get(&format!("{input}.{k}")) else {
-            if k == 0 {
-                return Err(NlfError::onnx(vectors, format!("no `{input}.0`")));
-            }
-            break;
-        };
-        let (out_shape, expected) = stored
-            .tensors
-            .get(&format!("{output}.{k}"))
-            .ok_or_else(|| NlfError::onnx(vectors, format!("no `{output}.{k}`")))?;
-        let (shape, got) = run_graph(graph, in_shape, values)?;
-        if &shape != out_shape {
-            return Err(NlfError::onnx(
-                graph,
-                format!("on vector {k}: output shape {shape:?}, expected {out_shape:?}"),
-            ));
-        }
-        worst = worst.max(max_relative_difference(&got, expected));
-    }
-    Ok(worst)
-}
+pub use splatzoo_train::onnx::{io_names, max_relative_difference, run_graph, verify};

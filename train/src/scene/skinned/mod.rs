@@ -29,6 +29,8 @@ pub struct SkinnedConfig {
     pub per_face: usize,
     /// Samples with `placement = "surface"`.
     pub surface_samples: usize,
+    /// Opacity of the canonical Gaussians at the start (3DGS's 0.1; OmniRe's humans 0.99).
+    pub initial_opacity: f64,
     pub canonical_pose: CanonicalPose,
     pub skinning: SkinningSource,
     /// Refine each trained frame's joint rotations (6-D deltas on the prior).
@@ -59,6 +61,7 @@ impl Default for SkinnedConfig {
             placement: Placement::PerFace,
             per_face: 2,
             surface_samples: 20_000,
+            initial_opacity: 0.1,
             canonical_pose: CanonicalPose::DaPose,
             skinning: SkinningSource::Barycentric,
             refine_rotations: true,
@@ -86,6 +89,12 @@ impl SkinnedConfig {
         }
         if self.placement == Placement::Surface && self.surface_samples == 0 {
             return bad("surface_samples ≥ 1");
+        }
+        if !(self.initial_opacity > 0.0 && self.initial_opacity < 1.0) {
+            return bad(&format!(
+                "initial_opacity in (0, 1), got {}",
+                self.initial_opacity
+            ));
         }
         for (name, v) in [
             ("rotation_rate", self.rotation_rate),

@@ -173,7 +173,9 @@ impl SkinnedGaussianNode {
                 MeshAnchors::sample_surface(&vertices, &model.faces, config.surface_samples, seed)
             }
         };
-        let set = canonical::canonical_set(&vertices, &model.faces, &anchors, device);
+        let mut set = canonical::canonical_set(&vertices, &model.faces, &anchors, device);
+        let o = config.initial_opacity;
+        set.opacity_logits = Tensor::full([set.len()], (o / (1.0 - o)).ln(), device);
         let canonical_joints = JointTransforms {
             rotations: rest.joint_rotations.reshape([j, 3, 3]),
             translations: rest.skinning_translations.reshape([j, 3]),
