@@ -359,13 +359,13 @@ fn train_apf_outputs_read_back_and_resume_across_processes() {
         let vectors = run_dir.join(format!("onnx/{stem}.vectors.safetensors"));
         assert!(onnx::verify(&graph, &vectors).unwrap() < 1e-3, "{stem}");
     }
-    let reposed: Vec<_> = std::fs::read_dir(run_dir.join("reposed"))
-        .unwrap()
-        .collect();
-    assert!(
-        !reposed.is_empty(),
-        "a pedestrian with an accessory re-posed"
-    );
+    // Every pedestrian with an accessory node is re-posed (this small scene may have none).
+    let raw: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run_dir.join("metrics.json")).unwrap())
+            .unwrap();
+    let carriers = raw["accessories"].as_array().map_or(0, Vec::len);
+    let reposed = std::fs::read_dir(run_dir.join("reposed")).map_or(0, |d| d.count());
+    assert_eq!(reposed, carriers);
 
     let first = with(&["--name", "b", "--stop-after", "2"]);
     let stopped = run(dir.path(), "train-apf", &strs(&first));
