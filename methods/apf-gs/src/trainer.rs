@@ -1,6 +1,7 @@
 //! `train-apf`'s trainer (the [`splatzoo_train::harness::Method`] is in `method.rs`): the scene
-//! graph of a driving capture trained view by view with Eq. 6's objective; stage S1 (LBS with pose refinement) for `warmup` steps, then S2 (the
-//! residual field, the gate and the accessory network). Its whole state (every node with its
+//! graph of a driving capture trained view by view with Eq. 6's objective; stage S1 (LBS with
+//! pose refinement) for `warmup` steps, then S2 (the residual field, the gate and the accessory
+//! network). Its whole state (every node with its
 //! optimiser and density statistics, the networks and their Adam moments, the view order) is
 //! one checkpoint, so a resumed run continues bit for bit on the CPU.
 
