@@ -14,7 +14,7 @@
 //! Gradients reach the parent's pose through `T_parent` unless `detach_parent` is set.
 
 use crate::networks::{ACCESSORY_COLUMNS, AccessoryField};
-use crate::residual::encode_positions;
+use crate::residual::{bounding_box, encode_positions};
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::networks::encoding::frequency_encoding;
 use splatzoo_models::rotation::{axis_angle_to_matrix, matrix_to_quaternion};
@@ -118,7 +118,7 @@ impl AccessoryNode {
         seed: u64,
     ) -> Self {
         let device = set.means.device();
-        let (centre, half_extent) = bounds(&set);
+        let (centre, half_extent) = bounding_box(&splatzoo_train::host_f32(&set.means), 0.05);
         let zeros = Tensor::<2>::zeros([1, 3], &device);
         Self {
             set: GaussianNode::new(name, set, rates, densify, 1.0, seed),
@@ -217,26 +217,6 @@ impl AccessoryNode {
             ..canonical
         }
     }
-}
-
-/// Centre and half extent of a set's means.
-fn bounds(set: &GaussianSet) -> ([f32; 3], [f32; 3]) {
-    let means = splatzoo_train::host_f32(&set.means);
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in means.chunks(3) {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
-    if means.is_empty() {
-        return ([0.0; 3], [1.0; 3]);
-    }
-    (
-        std::array::from_fn(|a| 0.5 * (lo[a] + hi[a])),
-        std::array::from_fn(|a| (0.5 * (hi[a] - lo[a])).max(0.05)),
-    )
 }
 
 impl AccessoryNode {

@@ -6,16 +6,16 @@
 //! IoU of their alpha with the true human; the σ trace against the injected pose error; the
 //! refined pose's joint error against the prior's.
 
-use crate::scene::{FrameInputs, Stage};
+use crate::networks::ApfNetworks;
+use crate::scene::{Composed, FrameInputs, Stage};
 use crate::trainer::ApfTrainer;
 use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
 use serde::Serialize;
 use splatzoo_datasets::masks::Mask;
-use splatzoo_datasets::pose_sequence::PoseSequence;
-use splatzoo_models::body::BodyModel;
-use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
+use splatzoo_rasterizer::Camera;
 use splatzoo_train::TrainError;
+use splatzoo_train::avatar::{mpjpe_mm, track_joints};
 use splatzoo_train::harness::{ScoreSum, Scores};
 use splatzoo_train::host_f32;
 use splatzoo_train::loss::{masked_psnr, masked_ssim, psnr, scalar, ssim};
@@ -51,29 +51,35 @@ fn mask_tensor(m: &Mask, device: &Device) -> Tensor<2> {
 }
 
 impl ApfTrainer {
-    /// The composed frame of view `index` rendered now (no autodiff), with the node-alpha pass.
-    pub fn render_view(
-        &self,
-        index: usize,
-    ) -> Result<(splatzoo_rasterizer::Render, Tensor<2>), TrainError> {
-        let view = &self.capture.views[index];
-        let nets = self.nets.valid();
+    /// The scene at `frame` for `camera` from the current networks (no autodiff), every
+    /// tracked person's residual on once S2 has started.
+    pub fn compose_at(&self, nets: &ApfNetworks, frame: usize, camera: &Camera) -> Composed {
         let stage = self.stage(self.step);
-        let visible: Vec<bool> = vec![true; self.capture.people.len()];
-        let guided = self.guided(&nets, view.frame, &visible, stage);
-        let composed = self.scene.compose(
+        let visible = vec![true; self.capture.people.len()];
+        let guided = self.guided(nets, frame, &visible, stage);
+        self.scene.compose(
             &FrameInputs {
-                camera: &view.camera,
-                frame: view.frame,
-                time: view.frame as f64 / self.capture.fps,
+                camera,
+                frame,
+                time: frame as f64 / self.capture.fps,
                 guided: &guided,
-                nets: &nets,
+                nets,
                 stage,
                 duration: self.duration(),
                 in_step: false,
             },
             &self.config,
-        );
+        )
+    }
+
+    /// The composed frame of view `index` rendered now (no autodiff), with the human nodes'
+    /// alpha from the node-type pass.
+    pub fn render_view(
+        &self,
+        index: usize,
+    ) -> Result<(splatzoo_rasterizer::Render, Tensor<2>), TrainError> {
+        let view = &self.capture.views[index];
+        let composed = self.compose_at(&self.nets.valid(), view.frame, &view.camera);
         let render = self.raster(&composed.splats, view.camera, false, false)?;
         let features = self.raster(&Self::node_features(&composed), view.camera, true, false)?;
         let [h, w, _] = features.color.dims();
@@ -182,76 +188,20 @@ impl ApfTrainer {
     /// truth, over every tracked person with a true track and every frame.
     pub fn pose_errors(&self) -> Option<(f64, f64)> {
         let device = self.background.device();
-        let (mut refined, mut prior, mut n) = (0.0, 0.0, 0usize);
+        let (mut refined, mut prior, mut frames) = (0.0, 0.0, 0usize);
         for (h, person) in self.capture.people.iter().enumerate() {
-            let truth = person.truth.as_ref()?;
-            let true_joints = track_joints(&self.model, truth, &device);
-            let prior_joints = track_joints(&self.model, &person.prior, &device);
+            let truth = track_joints(&self.model, person.truth.as_ref()?, &device);
             let node = &self.scene.humans[h].node;
-            for t in 0..self.capture.frames {
-                let r = host_f32(&node.joint_positions(t));
-                refined += joint_error(&r, &true_joints[t]);
-                prior += joint_error(&prior_joints[t], &true_joints[t]);
-                n += 1;
-            }
+            let rows = (0..self.capture.frames)
+                .map(|t| node.joint_positions(t))
+                .collect();
+            let f = self.capture.frames as f64;
+            refined += f * mpjpe_mm(Tensor::stack(rows, 0), truth.clone());
+            prior += f * mpjpe_mm(track_joints(&self.model, &person.prior, &device), truth);
+            frames += self.capture.frames;
         }
-        (n > 0).then(|| (1e3 * refined / n as f64, 1e3 * prior / n as f64))
+        (frames > 0).then(|| (refined / frames as f64, prior / frames as f64))
     }
-}
-
-/// Mean Euclidean distance between two `[J·3]` joint lists.
-fn joint_error(a: &[f32], b: &[f32]) -> f64 {
-    let j = a.len() / 3;
-    (0..j)
-        .map(|k| {
-            (0..3)
-                .map(|c| f64::from(a[3 * k + c] - b[3 * k + c]).powi(2))
-                .sum::<f64>()
-                .sqrt()
-        })
-        .sum::<f64>()
-        / j.max(1) as f64
-}
-
-/// Joints `[J·3]` of every frame of a track on `model`.
-fn track_joints(model: &BodyModel, track: &PoseSequence, device: &Device) -> Vec<Vec<f32>> {
-    let (f, j) = (track.frames(), model.joint_count());
-    let s = track.shape_count.min(model.shape_count());
-    let betas: Vec<f32> = (0..f)
-        .flat_map(|t| {
-            let b = track.frame_betas(t);
-            (0..model.shape_count()).map(move |k| if k < s { b[k] as f32 } else { 0.0 })
-        })
-        .collect();
-    let body = BodyTensors::new(model, device);
-    let posed = pose(
-        &body,
-        &PoseInput::from_axis_angle(
-            Tensor::from_data(TensorData::new(betas, [f, model.shape_count()]), device),
-            Tensor::from_data(
-                TensorData::new(
-                    track.poses.iter().map(|&v| v as f32).collect::<Vec<_>>(),
-                    [f, 3 * j],
-                ),
-                device,
-            ),
-            Tensor::from_data(
-                TensorData::new(
-                    track
-                        .translations
-                        .iter()
-                        .map(|&v| v as f32)
-                        .collect::<Vec<_>>(),
-                    [f, 3],
-                ),
-                device,
-            ),
-        ),
-    );
-    host_f32(&posed.joints)
-        .chunks(3 * j)
-        .map(|c| c.to_vec())
-        .collect()
 }
 
 /// Spearman's rank correlation of two equally long series (`None` when either is constant).

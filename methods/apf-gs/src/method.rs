@@ -4,7 +4,6 @@
 use crate::config::ApfConfig;
 use crate::eval::{HUMAN_REGION, spearman};
 use crate::networks::ApfNetworks;
-use crate::scene::FrameInputs;
 use crate::trainer::{ApfArgs, ApfTrainer, NetworkOptimizers, OPTIMIZERS};
 use burn::module::Module;
 use burn::tensor::Device;
@@ -242,23 +241,7 @@ impl Method for ApfTrainer {
         }
         if let Some(&first) = self.capture.test.first() {
             let view = &self.capture.views[first];
-            let nets = self.nets.valid();
-            let stage = self.stage(self.step);
-            let visible = vec![true; self.capture.people.len()];
-            let guided = self.guided(&nets, view.frame, &visible, stage);
-            let composed = self.scene.compose(
-                &FrameInputs {
-                    camera: &view.camera,
-                    frame: view.frame,
-                    time: view.frame as f64 / self.capture.fps,
-                    guided: &guided,
-                    nets: &nets,
-                    stage,
-                    duration: self.duration(),
-                    in_step: false,
-                },
-                &self.config,
-            );
+            let composed = self.compose_at(&self.nets.valid(), view.frame, &view.camera);
             write_ply(
                 &run.join(format!("scene_frame_{:04}.ply", view.frame)),
                 &GaussianSet::from_splats(&composed.splats),

@@ -53,6 +53,26 @@ impl Produced {
     }
 }
 
+/// Centre and half extent (at least `min_half` per axis) of flat `[N·3]` points' box: what `γ`
+/// normalises canonical positions to.
+pub fn bounding_box(points: &[f32], min_half: f32) -> ([f32; 3], [f32; 3]) {
+    if points.is_empty() {
+        return ([0.0; 3], [1.0; 3]);
+    }
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in points.chunks(3) {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (
+        std::array::from_fn(|a| 0.5 * (lo[a] + hi[a])),
+        std::array::from_fn(|a| (0.5 * (hi[a] - lo[a])).max(min_half)),
+    )
+}
+
 /// `γ` of canonical means `[G, 3]` normalised to a box.
 pub fn encode_positions(
     means: Tensor<2>,

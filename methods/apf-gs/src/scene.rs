@@ -12,7 +12,7 @@ use crate::error::ApfError;
 use crate::loss::{PersonTerms, limit_loss, relative_bone_loss};
 use crate::networks::{ApfNetworks, Embeddings};
 use crate::parent::{accessory_returns, initial_points, select_parent};
-use crate::residual::GatedResidual;
+use crate::residual::{GatedResidual, bounding_box};
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::body::BodyModel;
 use splatzoo_models::body::priors::bone_lengths;
@@ -80,21 +80,6 @@ pub struct Composed {
     pub terms: Vec<(usize, PersonTerms)>,
 }
 
-fn box_of(means: &[f32]) -> ([f32; 3], [f32; 3]) {
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in means.chunks(3) {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
-    (
-        std::array::from_fn(|a| 0.5 * (lo[a] + hi[a])),
-        std::array::from_fn(|a| (0.5 * (hi[a] - lo[a])).max(1e-3)),
-    )
-}
-
 impl ApfScene {
     pub fn build(
         config: &ApfConfig,
@@ -123,7 +108,7 @@ impl ApfScene {
                 device,
             )?;
             let (centre, half_extent) =
-                box_of(&splatzoo_train::host_f32(&node.canonical_set().means));
+                bounding_box(&splatzoo_train::host_f32(&node.canonical_set().means), 1e-3);
             humans.push(Human {
                 node,
                 centre,
@@ -282,14 +267,7 @@ impl ApfScene {
 
 /// The radius of the points' bounding box (3DGS's scene extent).
 fn scene_extent(points: &splatzoo_train::views::InitPoints) -> f64 {
-    let (_, half) = box_of(
-        &points
-            .positions
-            .iter()
-            .flatten()
-            .copied()
-            .collect::<Vec<_>>(),
-    );
+    let (_, half) = bounding_box(&points.positions.concat(), 0.0);
     f64::from((half[0] * half[0] + half[1] * half[1] + half[2] * half[2]).sqrt()) * 1.1
 }
 
