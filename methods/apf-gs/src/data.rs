@@ -29,6 +29,7 @@ use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_datasets::posing::{PosedFrame, pose_frames_with_joints};
 use splatzoo_datasets::render::{Albedo, Lighting, MeshInstance, RenderSettings, render};
 use splatzoo_datasets::synth::prior::PriorNoise;
+use splatzoo_datasets::synth::scene::body_label;
 use splatzoo_datasets::synth::{Preset, SceneConfig};
 use splatzoo_models::body::builtin_body;
 use splatzoo_models::rotation_scalar::{axis_angle_matrix, matrix_axis_angle};
@@ -114,7 +115,8 @@ pub struct ApfView {
     pub image: Tensor<3>,
     /// The dataset's merged human mask (all people, accessories included).
     pub coarse: Mask,
-    /// Ground truth for scoring only (synthetic data): body pixels and accessory pixels.
+    /// Ground truth for scoring only (synthetic data): the tracked pedestrians' body pixels
+    /// (what the human nodes model) and every accessory's pixels.
     pub true_human: Option<Mask>,
     pub true_accessory: Option<Mask>,
     /// Eq. 3's masks of every tracked person.
@@ -341,7 +343,16 @@ impl ApfDataConfig {
                     camera_index: truth.track,
                     camera: truth.camera,
                     image: Tensor::from_data(TensorData::new(srgb, [h, w, 3]), device),
-                    true_human: Some(Mask::new(w, h, truth.human_mask())),
+                    true_human: Some(Mask::new(
+                        w,
+                        h,
+                        truth
+                            .render
+                            .label
+                            .iter()
+                            .map(|&l| tracked.iter().any(|&k| l == body_label(k)))
+                            .collect(),
+                    )),
                     true_accessory: Some(Mask::new(w, h, truth.accessory_mask())),
                     coarse,
                     people,

@@ -28,9 +28,12 @@ pub const HUMAN_REGION: &str = "drivestudio's human_psnr: per image, MSE over th
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct SetScores {
     pub full: Scores,
-    /// Over the dataset's coarse mask (every person, accessories included).
+    /// Over the dataset's coarse mask (every person, accessories included; the untracked
+    /// pedestrian too, whom only the static background can show).
     pub human_coarse: Scores,
-    /// Over the true body pixels and the true accessory pixels.
+    /// Over the coarse mask of the tracked pedestrians (`∪_h M_coarse^h`).
+    pub human_coarse_tracked: Scores,
+    /// Over the tracked pedestrians' true body pixels and every true accessory pixel.
     pub human_true: Scores,
     pub accessory_true: Scores,
     /// `Σ A_h` over true accessory pixels / their count (human nodes' alpha where an accessory is).
@@ -94,7 +97,8 @@ impl ApfTrainer {
         lpips: Option<&Lpips>,
     ) -> Result<SetScores, TrainError> {
         let device = self.background.device();
-        let (mut full, mut coarse, mut human, mut accessory) = (
+        let (mut full, mut coarse, mut tracked, mut human, mut accessory) = (
+            ScoreSum::default(),
             ScoreSum::default(),
             ScoreSum::default(),
             ScoreSum::default(),
@@ -124,6 +128,11 @@ impl ApfTrainer {
                 }
             };
             region(&mut coarse, &view.coarse);
+            let tracked_coarse = view.people.iter().fold(
+                Mask::empty(view.coarse.width, view.coarse.height),
+                |m, p| m.or(&p.coarse),
+            );
+            region(&mut tracked, &tracked_coarse);
             if let Some(m) = &view.true_human {
                 region(&mut human, m);
             }
@@ -150,6 +159,7 @@ impl ApfTrainer {
         Ok(SetScores {
             full: full.mean(),
             human_coarse: coarse.mean(),
+            human_coarse_tracked: tracked.mean(),
             human_true: human.mean(),
             accessory_true: accessory.mean(),
             leakage: if leak_n > 0.0 { leak / leak_n } else { 0.0 },
