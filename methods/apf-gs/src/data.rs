@@ -38,6 +38,15 @@ use splatzoo_train::views::InitPoints;
 use splatzoo_train::views::init_points::{back_project, nearest_neighbour_scales};
 use std::path::PathBuf;
 
+/// How coarse the dataset's human masks are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CoarseMask {
+    Exact,
+    Dilated,
+    Boxes,
+}
+
 /// What the capture is made of.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -52,7 +61,10 @@ pub struct ApfDataConfig {
     pub noise: PriorNoise,
     /// The preset's prior-corruption window (an arm and a leg badly wrong for a few frames).
     pub corruption: bool,
-    /// The coarse mask dilated by this many pixels (0: the exact union).
+    /// The dataset's coarse human mask: the exact union of people and accessories, that union
+    /// dilated by `coarse_dilation` pixels, or every person's filled 2-D box (drivestudio's
+    /// `dynamic_masks` style).
+    pub coarse: CoarseMask,
     pub coarse_dilation: usize,
     /// LiDAR stand-in: beam rows per image and depth noise (metres).
     pub lidar_rows: usize,
@@ -74,7 +86,8 @@ impl Default for ApfDataConfig {
             supersample: 2,
             noise: PriorNoise::default(),
             corruption: true,
-            coarse_dilation: 0,
+            coarse: CoarseMask::Exact,
+            coarse_dilation: 3,
             lidar_rows: 32,
             lidar_noise: 0.02,
             background_points: 40_000,
@@ -292,11 +305,12 @@ impl ApfDataConfig {
                 .par_iter()
                 .map(|truth| {
                     let camera = truth.camera;
-                    let coarse = Mask::new(w, h, truth.coarse_mask());
-                    let coarse = if self.coarse_dilation > 0 {
-                        coarse.dilate(self.coarse_dilation)
-                    } else {
-                        coarse
+                    let coarse = match self.coarse {
+                        CoarseMask::Exact => Mask::new(w, h, truth.coarse_mask()),
+                        CoarseMask::Dilated => {
+                            Mask::new(w, h, truth.coarse_mask()).dilate(self.coarse_dilation)
+                        }
+                        CoarseMask::Boxes => Mask::new(w, h, truth.coarse_mask_boxes()),
                     };
                     let box_masks: Vec<Mask> = boxes
                         .iter()
