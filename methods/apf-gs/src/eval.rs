@@ -75,6 +75,15 @@ impl ApfTrainer {
         )
     }
 
+    /// Colour render of composed splats (no autodiff) at the current SH degree.
+    pub fn render_splats(
+        &self,
+        splats: &splatzoo_rasterizer::Splats,
+        camera: Camera,
+    ) -> Result<splatzoo_rasterizer::Render, TrainError> {
+        self.raster(splats, camera, false, false)
+    }
+
     /// The composed frame of view `index` rendered now (no autodiff), with the human nodes'
     /// alpha from the node-type pass.
     pub fn render_view(
