@@ -92,11 +92,17 @@ impl ModuleAdam {
     /// `module`'s parameters, the step count as `optimizer.steps` and the parameters that have
     /// moments (those that have had a gradient) as `optimizer.paths`.
     pub fn save<M: Module>(&self, module: &M, checkpoint: &mut Checkpoint) {
+        self.save_under(module, checkpoint, "optimizer");
+    }
+
+    /// [`Self::save`] under `prefix` instead of `optimizer` (a method with several networks,
+    /// each with its own optimiser, gives each its own prefix).
+    pub fn save_under<M: Module>(&self, module: &M, checkpoint: &mut Checkpoint, prefix: &str) {
         let shapes = shapes(module);
         let mut steps = self.pending_steps;
         let mut put = |path: &str, first: Vec<f32>, second: Vec<f32>| {
             let shape = shapes[path].clone();
-            let name = |suffix: &str| format!("optimizer.{path}.{suffix}");
+            let name = |suffix: &str| format!("{prefix}.{path}.{suffix}");
             checkpoint
                 .tensors
                 .insert(name("exp_avg"), (shape.clone(), first));
@@ -115,7 +121,7 @@ impl ModuleAdam {
         for (path, (first, second)) in &self.pending {
             put(path, first.clone(), second.clone());
         }
-        checkpoint.put_meta("optimizer.steps", steps);
+        checkpoint.put_meta(&format!("{prefix}.steps"), steps);
         // Which parameters have moments: one that never had a gradient has none yet.
         let paths: Vec<&str> = self
             .states
@@ -123,7 +129,7 @@ impl ModuleAdam {
             .chain(self.pending.keys())
             .map(String::as_str)
             .collect();
-        checkpoint.put_meta("optimizer.paths", paths.join(","));
+        checkpoint.put_meta(&format!("{prefix}.paths"), paths.join(","));
     }
 
     /// The moments [`save`](Self::save) wrote, for every parameter of `module`, each checked
@@ -133,6 +139,16 @@ impl ModuleAdam {
         module: &M,
         checkpoint: &Checkpoint,
     ) -> Result<Self, CheckpointError> {
+        Self::load_under(config, module, checkpoint, "optimizer")
+    }
+
+    /// What [`Self::save_under`] wrote under `prefix`.
+    pub fn load_under<M: Module>(
+        config: AdamConfig,
+        module: &M,
+        checkpoint: &Checkpoint,
+        prefix: &str,
+    ) -> Result<Self, CheckpointError> {
         let entry = |name: &str, problem: String| CheckpointError::Entry {
             file: checkpoint.origin.clone(),
             name: name.to_owned(),
@@ -140,18 +156,22 @@ impl ModuleAdam {
         };
         // Checkpoints that list their parameters with moments hold exactly those; older ones
         // hold every parameter's.
-        let listed: Option<Vec<String>> = checkpoint.metadata.get("optimizer.paths").map(|p| {
-            p.split(',')
-                .filter(|s| !s.is_empty())
-                .map(str::to_owned)
-                .collect()
-        });
+        let listed: Option<Vec<String>> =
+            checkpoint
+                .metadata
+                .get(&format!("{prefix}.paths"))
+                .map(|p| {
+                    p.split(',')
+                        .filter(|s| !s.is_empty())
+                        .map(str::to_owned)
+                        .collect()
+                });
         let shapes = shapes(module);
         if let Some(listed) = &listed
             && let Some(unknown) = listed.iter().find(|p| !shapes.contains_key(*p))
         {
             return Err(entry(
-                "optimizer.paths",
+                &format!("{prefix}.paths"),
                 format!("`{unknown}` is not a parameter of the network"),
             ));
         }
@@ -161,7 +181,7 @@ impl ModuleAdam {
                 continue;
             }
             let read = |suffix: &str| -> Result<Vec<f32>, CheckpointError> {
-                let name = format!("optimizer.{path}.{suffix}");
+                let name = format!("{prefix}.{path}.{suffix}");
                 let (stored, values) = checkpoint
                     .tensors
                     .get(&name)
@@ -186,7 +206,7 @@ impl ModuleAdam {
             config,
             states: BTreeMap::new(),
             pending,
-            pending_steps: checkpoint.meta_parsed("optimizer.steps")?,
+            pending_steps: checkpoint.meta_parsed(&format!("{prefix}.steps"))?,
         })
     }
 }

@@ -78,7 +78,6 @@ pub struct AccessoryNode {
     /// The canonical bounding box (centre, half extent) `γ(x̄)` normalises to.
     centre: [f32; 3],
     half_extent: [f32; 3],
-    deformation: Option<AccessoryDeformation>,
     in_step: bool,
 }
 
@@ -135,14 +134,8 @@ impl AccessoryNode {
             detach_parent: false,
             centre,
             half_extent,
-            deformation: None,
             in_step: false,
         }
-    }
-
-    /// Sets (or clears) the deformation network for the coming renders.
-    pub fn set_deformation(&mut self, deformation: Option<AccessoryDeformation>) {
-        self.deformation = deformation;
     }
 
     /// The canonical Gaussians (parent-joint frame).
@@ -220,7 +213,7 @@ impl AccessoryNode {
 }
 
 impl AccessoryNode {
-    /// [`SceneNode::render`] with the given deformation network instead of the node's own.
+    /// [`SceneNode::render`] with the accessory network `D_ψ` (`None`: rigid).
     pub fn render_with(
         &self,
         query: &FrameQuery,
@@ -279,7 +272,9 @@ impl SceneNode for AccessoryNode {
     }
 
     fn render(&self, query: &FrameQuery, context: &FrameContext) -> NodeOutput {
-        self.render_with(query, context, self.deformation.as_ref())
+        // As a plain graph node the accessory is rigid; the trainer renders it with `D_ψ`
+        // through [`AccessoryNode::render_with`].
+        self.render_with(query, context, None)
     }
 
     fn regulariser(&self) -> Option<Tensor<1>> {

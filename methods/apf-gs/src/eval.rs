@@ -43,7 +43,8 @@ pub struct SetScores {
     pub images: usize,
 }
 
-fn mask_tensor(m: &Mask, device: &Device) -> Tensor<2> {
+/// A mask as a 0/1 image `[H, W]`.
+pub(crate) fn mask_tensor(m: &Mask, device: &Device) -> Tensor<2> {
     Tensor::from_data(
         TensorData::new(
             m.data.iter().map(|&b| f32::from(b)).collect::<Vec<_>>(),

@@ -4,12 +4,12 @@
 use crate::config::ApfConfig;
 use crate::eval::{HUMAN_REGION, spearman};
 use crate::networks::ApfNetworks;
-use crate::trainer::{ApfArgs, ApfTrainer, NetworkOptimizers, OPTIMIZERS};
+use crate::trainer::{ApfArgs, ApfTrainer, NetworkOptimizers};
 use burn::module::Module;
 use burn::tensor::Device;
 use splatzoo_models::networks::weights::{WeightFile, load_module, module_tensors};
 use splatzoo_train::TrainError;
-use splatzoo_train::checkpoint::{Checkpoint, CheckpointError};
+use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::gaussians::GaussianSet;
 use splatzoo_train::harness::{EpochOrder, Evaluation, Method, Say, StepReport};
 use splatzoo_train::images::{side_by_side, srgb_image, write_png};
@@ -21,40 +21,6 @@ use std::path::Path;
 
 /// Networks' tensors live under this prefix in checkpoints.
 const NETWORKS: &str = "networks";
-
-/// Moves `optimizer.*` entries of `from` into `into` under `networks.optimizer.<name>.*`.
-fn rekey_optimizer(from: Checkpoint, name: &str, into: &mut Checkpoint) {
-    for (k, v) in from.tensors {
-        let rest = k.strip_prefix("optimizer.").unwrap_or(&k);
-        into.tensors
-            .insert(format!("{NETWORKS}.optimizer.{name}.{rest}"), v);
-    }
-    for (k, v) in from.metadata {
-        let rest = k.strip_prefix("optimizer.").unwrap_or(&k);
-        into.metadata
-            .insert(format!("{NETWORKS}.optimizer.{name}.{rest}"), v);
-    }
-}
-
-/// The entries of optimizer `name` as [`ModuleAdam::save`] wrote them.
-fn optimizer_view(checkpoint: &Checkpoint, name: &str) -> Checkpoint {
-    let prefix = format!("{NETWORKS}.optimizer.{name}.");
-    let mut out = Checkpoint {
-        origin: checkpoint.origin.clone(),
-        ..Default::default()
-    };
-    for (k, v) in &checkpoint.tensors {
-        if let Some(rest) = k.strip_prefix(&prefix) {
-            out.tensors.insert(format!("optimizer.{rest}"), v.clone());
-        }
-    }
-    for (k, v) in &checkpoint.metadata {
-        if let Some(rest) = k.strip_prefix(&prefix) {
-            out.metadata.insert(format!("optimizer.{rest}"), v.clone());
-        }
-    }
-    out
-}
 
 fn load_networks(
     fresh: ApfNetworks,
@@ -72,25 +38,38 @@ fn load_networks(
         .collect();
     let file = WeightFile::new(checkpoint.origin.clone(), tensors);
     let nets = load_module(fresh, &file)?.train();
-    let load = |name: &str, f: &dyn Fn(&Checkpoint) -> Result<ModuleAdam, CheckpointError>| {
-        f(&optimizer_view(checkpoint, name))
-    };
+    let under = |name: &str| format!("{NETWORKS}.optimizer.{name}");
     let optimizers = NetworkOptimizers {
-        encoder: load("encoder", &|c| {
-            ModuleAdam::load(NETWORK_ADAM, &nets.encoder, c)
-        })?,
-        guidance: load("guidance", &|c| {
-            ModuleAdam::load(NETWORK_ADAM, &nets.guidance, c)
-        })?,
-        residual: load("residual", &|c| {
-            ModuleAdam::load(NETWORK_ADAM, &nets.residual, c)
-        })?,
-        accessory: load("accessory", &|c| {
-            ModuleAdam::load(NETWORK_ADAM, &nets.accessory, c)
-        })?,
-        embeddings: load("embeddings", &|c| {
-            ModuleAdam::load(NETWORK_ADAM, &nets.embeddings, c)
-        })?,
+        encoder: ModuleAdam::load_under(
+            NETWORK_ADAM,
+            &nets.encoder,
+            checkpoint,
+            &under("encoder"),
+        )?,
+        guidance: ModuleAdam::load_under(
+            NETWORK_ADAM,
+            &nets.guidance,
+            checkpoint,
+            &under("guidance"),
+        )?,
+        residual: ModuleAdam::load_under(
+            NETWORK_ADAM,
+            &nets.residual,
+            checkpoint,
+            &under("residual"),
+        )?,
+        accessory: ModuleAdam::load_under(
+            NETWORK_ADAM,
+            &nets.accessory,
+            checkpoint,
+            &under("accessory"),
+        )?,
+        embeddings: ModuleAdam::load_under(
+            NETWORK_ADAM,
+            &nets.embeddings,
+            checkpoint,
+            &under("embeddings"),
+        )?,
     };
     Ok((nets, optimizers))
 }
@@ -204,16 +183,16 @@ impl Method for ApfTrainer {
         }
         let o = &self.optimizers;
         let n = &self.nets;
-        let mut save = |name: &str, f: &dyn Fn(&mut Checkpoint)| {
-            let mut part = Checkpoint::default();
-            f(&mut part);
-            rekey_optimizer(part, name, &mut c);
-        };
-        save(OPTIMIZERS[0], &|p| o.encoder.save(&n.encoder, p));
-        save(OPTIMIZERS[1], &|p| o.guidance.save(&n.guidance, p));
-        save(OPTIMIZERS[2], &|p| o.residual.save(&n.residual, p));
-        save(OPTIMIZERS[3], &|p| o.accessory.save(&n.accessory, p));
-        save(OPTIMIZERS[4], &|p| o.embeddings.save(&n.embeddings, p));
+        let under = |name: &str| format!("{NETWORKS}.optimizer.{name}");
+        o.encoder.save_under(&n.encoder, &mut c, &under("encoder"));
+        o.guidance
+            .save_under(&n.guidance, &mut c, &under("guidance"));
+        o.residual
+            .save_under(&n.residual, &mut c, &under("residual"));
+        o.accessory
+            .save_under(&n.accessory, &mut c, &under("accessory"));
+        o.embeddings
+            .save_under(&n.embeddings, &mut c, &under("embeddings"));
         self.order.save(&mut c);
         c
     }

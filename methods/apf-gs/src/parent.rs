@@ -16,7 +16,7 @@ use crate::data::{ApfCapture, TrackedPerson};
 use splatzoo_datasets::posing::PosedFrame;
 use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_train::views::InitPoints;
-use splatzoo_train::views::init_points::nearest_neighbour_scales;
+use splatzoo_train::views::init_points::{back_project, nearest_neighbour_scales};
 
 /// SMPL's pelvis, spine1–3 and wrists.
 pub const CANDIDATE_JOINTS: [usize; 6] = [0, 3, 6, 9, 20, 21];
@@ -53,30 +53,26 @@ pub fn accessory_returns(capture: &ApfCapture, h: usize) -> Vec<Vec<([f32; 3], [
         if inner.area() == 0 {
             continue;
         }
-        let camera = &view.camera;
-        let w = camera.width as usize;
-        let m = camera.world_to_camera;
+        let depth: Vec<f32> = lidar
+            .iter()
+            .zip(&inner.data)
+            .map(|(&d, &on)| if on { d } else { f32::NAN })
+            .collect();
+        let mut points = InitPoints::default();
         let srgb = splatzoo_train::host_f32(&view.image);
-        for (p, &d) in lidar.iter().enumerate() {
-            if !(d.is_finite() && d > 0.0 && inner.data[p]) {
-                continue;
-            }
-            let (x, y) = ((p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
-            let c = [
-                d * (x - camera.cx) / camera.fx,
-                d * (y - camera.cy) / camera.fy,
-                d,
-            ];
-            let world: [f32; 3] =
-                std::array::from_fn(|j| (0..3).map(|i| m[i][j] * (c[i] - m[i][3])).sum());
-            // A return outside the person's 3-D box belongs to someone or something else.
-            let inside = capture.people[h].boxes[view.frame]
-                .is_some_and(|b| (0..3).all(|a| world[a] >= b[0][a] && world[a] <= b[1][a]));
-            if inside {
-                per_frame[view.frame]
-                    .push((world, [srgb[3 * p], srgb[3 * p + 1], srgb[3 * p + 2]]));
-            }
-        }
+        back_project(&view.camera, &depth, &srgb, 1, &mut points);
+        // A return outside the person's 3-D box belongs to someone or something else.
+        let inside = |p: &[f32; 3]| {
+            capture.people[h].boxes[view.frame]
+                .is_some_and(|b| (0..3).all(|a| p[a] >= b[0][a] && p[a] <= b[1][a]))
+        };
+        per_frame[view.frame].extend(
+            points
+                .positions
+                .into_iter()
+                .zip(points.colours)
+                .filter(|(p, _)| inside(p)),
+        );
     }
     per_frame
 }

@@ -43,9 +43,6 @@ pub struct NetworkOptimizers {
     pub embeddings: ModuleAdam,
 }
 
-/// The optimisers' names in checkpoints (`networks.optimizer.<name>.…`).
-pub const OPTIMIZERS: [&str; 5] = ["encoder", "guidance", "residual", "accessory", "embeddings"];
-
 impl NetworkOptimizers {
     pub fn new() -> Self {
         Self {
@@ -242,16 +239,7 @@ impl ApfTrainer {
         );
         let mut loss = photo.clone();
         let device = self.background.device();
-        let image = |m: &Mask| {
-            Tensor::<2>::from_data(
-                TensorData::new(
-                    m.data.iter().map(|&b| f32::from(b)).collect::<Vec<_>>(),
-                    [m.height, m.width],
-                ),
-                &device,
-            )
-            .autodiff()
-        };
+        let image = |m: &Mask| crate::eval::mask_tensor(m, &device).autodiff();
         if self.config.loss.mask > 0.0 && visible.iter().any(|&v| v) {
             let targets = self.mask_targets(index);
             if targets.weight.area() > 0 {

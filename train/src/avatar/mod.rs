@@ -18,7 +18,7 @@ pub mod scenery;
 mod trainer;
 
 pub use data::{AvatarCapture, AvatarDataConfig, AvatarFrame, AvatarPreset, AvatarView};
-pub use eval::{mpjpe_mm, track_joints};
+pub use eval::{mpjpe_mm, project, track_joints};
 pub use trainer::{AvatarArgs, AvatarTrainer, HUMAN};
 
 use crate::backend::Backend;
