@@ -6,6 +6,7 @@
 //! - [`rotation`] (Burn ops) and [`rotation_scalar`] (f64): axis-angle, matrices, quaternions,
 //!   6-D;
 //! - [`anchor`]: Gaussians anchored on mesh faces, face frames, subdivision, surface sampling;
+//! - [`normals`]: differentiable area-weighted vertex normals and their f64 reference;
 //! - [`networks`]: ResNet/FPN encoders and safetensors weight files;
 //! - [`pickle`] (Python pickles, joblib, numpy objects) and [`files`] (the one atomic writer).
 
@@ -13,6 +14,7 @@ pub mod anchor;
 pub mod body;
 pub mod files;
 pub mod networks;
+pub mod normals;
 pub mod pickle;
 pub mod rotation;
 pub mod rotation_scalar;

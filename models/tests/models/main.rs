@@ -1,5 +1,5 @@
 //! The models crate's integration tests, one binary: mesh anchors, the built-in body, linear
-//! blend skinning, shared networks (ResNet, FPN, weight files), body-model files (npz, pkl),
+//! blend skinning, vertex normals, shared networks (ResNet, FPN, weight files), body-model files (npz, pkl),
 //! skeleton priors and rotations.
 
 mod anchor;
@@ -7,6 +7,7 @@ mod builtin;
 mod common;
 mod lbs;
 mod networks;
+mod normals;
 mod npz;
 mod pkl;
 mod priors;
