@@ -70,10 +70,16 @@ impl GaussianOptimizer {
     pub fn means_rate(&self, progress: f64) -> f64 {
         let r = &self.rates;
         let t = progress.clamp(0.0, 1.0);
+        if r.means_start <= 0.0 || r.means_end <= 0.0 {
+            // No log-linear path through zero (ln 0 · 0 is NaN): linear, so 0 → 0 freezes.
+            return self.extent * (r.means_start * (1.0 - t) + r.means_end * t);
+        }
         self.extent * (r.means_start.ln() * (1.0 - t) + r.means_end.ln() * t).exp()
     }
 
-    /// One step on `set` from the gradients of `leaves` (taken from `set` for this step).
+    /// One step on `set` from the gradients of `leaves` (taken from `set` for this step). A
+    /// group whose leaf got no gradient (a method that renders a fixed value in its place, say
+    /// an avatar's constant opacity) keeps its values and moments.
     pub fn step(
         &mut self,
         set: &mut GaussianSet,
@@ -81,42 +87,65 @@ impl GaussianOptimizer {
         grads: &Gradients,
         progress: f64,
     ) {
+        fn group<const D: usize>(
+            adam: &mut AdamState<D>,
+            value: &mut Tensor<D>,
+            leaf: &Tensor<D>,
+            grads: &Gradients,
+            rate: f64,
+            config: &AdamConfig,
+        ) {
+            if let Some(g) = leaf.grad(grads) {
+                *value = adam.step(value.clone(), g, rate, config);
+            }
+        }
         let (c, r) = (self.config, self.rates);
-        let missing = "every leaf has a gradient after the backward pass";
         let means_rate = self.means_rate(progress);
-        set.means = self.means.step(
-            set.means.clone(),
-            leaves.means.grad(grads).expect(missing),
+        group(
+            &mut self.means,
+            &mut set.means,
+            &leaves.means,
+            grads,
             means_rate,
             &c,
         );
-        set.quats = self.quats.step(
-            set.quats.clone(),
-            leaves.quats.grad(grads).expect(missing),
+        group(
+            &mut self.quats,
+            &mut set.quats,
+            &leaves.quats,
+            grads,
             r.quats,
             &c,
         );
-        set.log_scales = self.log_scales.step(
-            set.log_scales.clone(),
-            leaves.log_scales.grad(grads).expect(missing),
+        group(
+            &mut self.log_scales,
+            &mut set.log_scales,
+            &leaves.log_scales,
+            grads,
             r.log_scales,
             &c,
         );
-        set.opacity_logits = self.opacity.step(
-            set.opacity_logits.clone(),
-            leaves.opacity_logits.grad(grads).expect(missing),
+        group(
+            &mut self.opacity,
+            &mut set.opacity_logits,
+            &leaves.opacity_logits,
+            grads,
             r.opacity,
             &c,
         );
-        set.sh_dc = self.sh_dc.step(
-            set.sh_dc.clone(),
-            leaves.sh_dc.grad(grads).expect(missing),
+        group(
+            &mut self.sh_dc,
+            &mut set.sh_dc,
+            &leaves.sh_dc,
+            grads,
             r.sh_dc,
             &c,
         );
-        set.sh_rest = self.sh_rest.step(
-            set.sh_rest.clone(),
-            leaves.sh_rest.grad(grads).expect(missing),
+        group(
+            &mut self.sh_rest,
+            &mut set.sh_rest,
+            &leaves.sh_rest,
+            grads,
             r.sh_rest,
             &c,
         );

@@ -24,13 +24,24 @@
 //!
 //! The crate's `README.md` lists what is built so far and every choice the paper leaves open.
 
+pub mod avatar;
+pub mod avatar_stage;
 pub mod camera;
+pub mod config;
 pub mod contact;
+pub mod data;
 mod error;
+pub mod eval;
+mod export;
+pub mod init;
+pub mod joint;
 pub mod locate;
 pub mod loss;
+mod method;
 pub mod offsets;
 pub mod plane;
 pub mod render;
+pub mod scene_stage;
 
 pub use error::Prior4dError;
+pub use method::{Prior4d, Prior4dArgs, Stage};

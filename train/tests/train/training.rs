@@ -752,3 +752,46 @@ fn module_adam_follows_adam_and_resumes_from_a_checkpoint() {
         "{error}"
     );
 }
+
+/// Zero learning rates freeze a group exactly (no NaN from the log-linear position schedule),
+/// and a group whose leaf got no gradient keeps its values.
+#[test]
+fn zero_rates_and_unused_groups_leave_values_bit_identical() {
+    let device = Device::flex();
+    let mut rng = Rng(11);
+    let set = random_set(16, &mut rng, &device);
+    let frozen = LearningRates {
+        means_start: 0.0,
+        means_end: 0.0,
+        quats: 0.0,
+        log_scales: 0.0,
+        opacity: 0.0,
+        ..LearningRates::default()
+    };
+    let mut optimizer = GaussianOptimizer::new(&set, frozen, 2.0);
+    assert_eq!(optimizer.means_rate(0.0), 0.0);
+    assert_eq!(optimizer.means_rate(0.7), 0.0);
+    let mut stepped = set.clone();
+    for _ in 0..3 {
+        let leaves = stepped.leaves();
+        // Opacity unused: its leaf gets no gradient.
+        let grads = (leaves.means.clone().sum()
+            + leaves.quats.clone().sum()
+            + leaves.log_scales.clone().sum()
+            + leaves.sh_dc.clone().sum()
+            + leaves.sh_rest.clone().sum())
+        .backward();
+        optimizer.step(&mut stepped, &leaves, &grads, 0.5);
+    }
+    let bits = |t: &Tensor<2>| t.clone().into_data().try_to_vec::<f32>().unwrap();
+    assert_eq!(bits(&stepped.means), bits(&set.means));
+    assert_eq!(bits(&stepped.quats), bits(&set.quats));
+    assert_eq!(bits(&stepped.log_scales), bits(&set.log_scales));
+    let opacity = |t: &Tensor<1>| t.clone().into_data().try_to_vec::<f32>().unwrap();
+    assert_eq!(
+        opacity(&stepped.opacity_logits),
+        opacity(&set.opacity_logits)
+    );
+    let dc = |t: &Tensor<3>| t.clone().into_data().try_to_vec::<f32>().unwrap();
+    assert_ne!(dc(&stepped.sh_dc), dc(&set.sh_dc), "colours still learn");
+}

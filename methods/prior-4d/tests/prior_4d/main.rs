@@ -2,10 +2,12 @@
 //! Huber terms against hand-computed values, the locator's σ-invariance, camera refinement,
 //! rendered normals against analytic ones, and the pose-dependent offsets' place in Eq. 2.
 
+mod data;
 mod geometry;
 mod objective;
 mod offsets;
 mod plane;
+mod trainer;
 
 use burn::tensor::Tensor;
 

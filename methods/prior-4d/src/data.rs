@@ -1,0 +1,651 @@
+//! The synthetic Prior-4D capture (spec §7), rendered by the independent CPU mesh renderer from
+//! the `monocular` preset's room, person and cameras: three separate videos and an evaluation
+//! camera, each with the noisy stand-ins of the external priors the paper runs.
+//!
+//! - **Scene scan**: the room without the person, from two hand-held loops (1.2 m high around
+//!   the room looking in, 1.7 m high near the middle looking out), with a monocular inverse
+//!   depth (true inverse depth under an unknown per-image affine map plus 3 % noise) and a
+//!   ground mask (the floor's pixels, jittered).
+//! - **Human scan**: the same identity standing in the neutral pose, seen all the way round by
+//!   a ring in an empty studio, with person masks and a noisy body fit.
+//! - **Acting video**: the preset's hand-held camera circling the person as they walk, wave and
+//!   stand, with noisy SfM camera poses, a camera-space body prior (the tracker's estimate
+//!   under `PriorNoise`, shape error included), jittered person masks and normal maps (true
+//!   normals in the camera frame under a random rotation of `normal_noise_degrees` RMS, blurred).
+//! - **Evaluation**: the preset's fixed camera, synchronised, never trained on.
+//!
+//! Two gaps the paper's challenges come from are built in: an **appearance gap** (each video
+//! its own exposure/white-balance gain) and a **scale gap**: the scene scan, the acting cameras
+//! and the evaluation camera live in scene units (metres × `scene_scale`, SfM's arbitrary scale)
+//! while the body lives in metres, so the true global scale is σ* = `scene_scale` (for a body
+//! of the true height).
+//! Every person wears the static clothing relief the naked body model lacks.
+
+use crate::error::Prior4dError;
+use burn::tensor::{Device, Tensor, TensorData};
+use glam::{DMat3, DQuat, DVec3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use splatzoo_datasets::image_io::linear_to_srgb;
+use splatzoo_datasets::masks::Mask;
+use splatzoo_datasets::pose_sequence::PoseSequence;
+use splatzoo_datasets::synth::environment::Environment;
+use splatzoo_datasets::synth::motion::{Motion, Start, generate};
+use splatzoo_datasets::synth::prior::PriorNoise;
+use splatzoo_datasets::synth::rig::{CameraTrack, ring};
+use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_datasets::synth::scene::{Person, standing_height};
+use splatzoo_datasets::synth::{Preset, Scene, SceneConfig, ViewTruth};
+use splatzoo_models::body::{BodyModel, builtin_body};
+use splatzoo_rasterizer::Camera;
+use splatzoo_train::views::InitPoints;
+use splatzoo_train::views::init_points::back_project;
+
+/// Every knob of the synthetic capture.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Prior4dDataConfig {
+    pub seed: u64,
+    /// Image size of every video.
+    pub width: u32,
+    pub height: u32,
+    /// Acting-video frames at 10 Hz.
+    pub acting_frames: usize,
+    /// Scene-scan views, half on each loop.
+    pub scene_views: usize,
+    /// Human-scan views around the person.
+    pub scan_views: usize,
+    /// Scene units per metre: the scene scan, the acting and evaluation cameras are metres ×
+    /// this (SfM's arbitrary scale); σ* for a body of the true height.
+    pub scene_scale: f64,
+    /// Linear RGB gains of the scan videos and of the acting and evaluation videos.
+    pub scan_gain: [f32; 3],
+    pub acting_gain: [f32; 3],
+    /// The body tracker's errors on the scans and the acting video.
+    pub noise: PriorNoise,
+    /// SfM errors of the acting cameras: rotation (degrees) and centre (metres, × scale).
+    pub camera_rotation_noise_degrees: f64,
+    pub camera_translation_noise: f64,
+    /// RMS rotation of the given normal maps (degrees).
+    pub normal_noise_degrees: f64,
+    /// Person and ground masks are dilated or eroded by up to this many pixels.
+    pub mask_jitter: usize,
+    /// Samples per pixel along each axis.
+    pub supersample: usize,
+}
+
+impl Default for Prior4dDataConfig {
+    fn default() -> Self {
+        Self {
+            seed: 0,
+            width: 200,
+            height: 150,
+            acting_frames: 60,
+            scene_views: 96,
+            scan_views: 36,
+            scene_scale: 0.7,
+            scan_gain: [1.15, 1.08, 0.95],
+            acting_gain: [1.0; 3],
+            noise: PriorNoise::default(),
+            camera_rotation_noise_degrees: 0.3,
+            camera_translation_noise: 0.01,
+            normal_noise_degrees: 8.0,
+            mask_jitter: 1,
+            supersample: 2,
+        }
+    }
+}
+
+impl Prior4dDataConfig {
+    pub fn validate(&self) -> Result<(), String> {
+        if self.width < 16 || self.height < 16 {
+            return Err(format!(
+                "data.width and data.height ≥ 16, got {}×{}",
+                self.width, self.height
+            ));
+        }
+        if self.acting_frames < 2 || self.scene_views < 4 || self.scan_views < 4 {
+            return Err("data: acting_frames ≥ 2, scene_views ≥ 4 and scan_views ≥ 4".into());
+        }
+        if !(self.scene_scale.is_finite() && self.scene_scale > 0.0) {
+            return Err(format!("data.scene_scale > 0, got {}", self.scene_scale));
+        }
+        if self.supersample == 0 {
+            return Err("data.supersample ≥ 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// One scene-scan view.
+pub struct SceneScanView {
+    /// In scene units.
+    pub camera: Camera,
+    /// `[H, W, 3]` sRGB.
+    pub image: Tensor<3>,
+    /// `[H, W]` the monocular inverse depth (an unknown affine map of the true one, noisy).
+    pub mono_inverse_depth: Tensor<2>,
+    /// True camera-space depth (scene units, ∞ on the background): the sparse points the
+    /// monocular depth's affine map is fitted to are sampled from it.
+    pub depth: Vec<f32>,
+    pub ground: Mask,
+}
+
+/// One human-scan view.
+pub struct HumanScanView {
+    pub camera: Camera,
+    pub image: Tensor<3>,
+    /// `[H, W]` 0/1 person mask.
+    pub mask: Tensor<2>,
+}
+
+/// One acting frame.
+pub struct ActingFrame {
+    /// The SfM estimate of the camera, in scene units.
+    pub camera: Camera,
+    /// The true camera, scene units (scores only).
+    pub true_camera: Camera,
+    pub image: Tensor<3>,
+    /// `[H, W]` 0/1 person mask.
+    pub mask: Tensor<2>,
+    /// `[H, W, 3]` the given normal map, camera frame (OpenCV axes), zero off the person.
+    pub normals: Tensor<3>,
+}
+
+/// One evaluation frame (never trained on).
+pub struct EvalFrame {
+    pub camera: Camera,
+    pub image: Tensor<3>,
+    /// The true person mask and camera-frame normals (zero off the person).
+    pub mask: Mask,
+    pub normals: Vec<[f32; 3]>,
+}
+
+pub struct Prior4dCapture {
+    pub scene_scan: Vec<SceneScanView>,
+    /// Back-projected from the scan's true depth, scene units (the SfM points' stand-in).
+    pub scene_points: InitPoints,
+    /// sRGB.
+    pub scene_background: [f32; 3],
+    pub human_scan: Vec<HumanScanView>,
+    /// The scan's body fit, world metres, one frame per view.
+    pub scan_prior: PoseSequence,
+    pub scan_background: [f32; 3],
+    pub acting: Vec<ActingFrame>,
+    /// The acting video's body prior and truth in each frame's true camera frame (metres).
+    pub acting_prior: PoseSequence,
+    pub acting_truth: PoseSequence,
+    pub eval: Vec<EvalFrame>,
+    /// The person's true shape (scores only).
+    pub true_betas: Vec<f64>,
+    /// Scene units per metre.
+    pub scale: f64,
+    pub fps: f64,
+    pub decisions: Vec<String>,
+}
+
+fn srgb(view: &ViewTruth, gain: [f32; 3]) -> Vec<f32> {
+    view.render
+        .color
+        .iter()
+        .flat_map(|c| [0, 1, 2].map(|k| linear_to_srgb((c[k] * gain[k]).clamp(0.0, 1.0))))
+        .collect()
+}
+
+fn image_tensor(values: Vec<f32>, w: usize, h: usize, device: &Device) -> Tensor<3> {
+    Tensor::from_data(TensorData::new(values, [h, w, 3]), device)
+}
+
+fn mask_tensor(mask: &Mask, device: &Device) -> Tensor<2> {
+    let values: Vec<f32> = mask.data.iter().map(|&m| f32::from(u8::from(m))).collect();
+    Tensor::from_data(TensorData::new(values, [mask.height, mask.width]), device)
+}
+
+/// A mask grown or shrunk by up to `jitter` pixels (a segmenter's boundary error).
+fn jittered(mask: Mask, jitter: usize, rng: &mut Rng) -> Mask {
+    let r = (rng.range(0.0, jitter as f64 + 1.0) as usize).min(jitter);
+    if r == 0 {
+        mask
+    } else if rng.range(0.0, 1.0) < 0.5 {
+        mask.dilate(r)
+    } else {
+        mask.erode(r)
+    }
+}
+
+/// `camera` with its world scaled by `scale` (centre and translation; rotation unchanged).
+pub fn scaled_camera(camera: &Camera, scale: f64) -> Camera {
+    let mut scaled = *camera;
+    for row in &mut scaled.world_to_camera {
+        row[3] = (f64::from(row[3]) * scale) as f32;
+    }
+    scaled
+}
+
+fn rotation_of(camera: &Camera) -> DMat3 {
+    let m = camera.world_to_camera;
+    DMat3::from_cols_array_2d(&[0, 1, 2].map(|j| [0, 1, 2].map(|i| f64::from(m[i][j]))))
+}
+
+/// A random unit vector.
+fn direction(rng: &mut Rng) -> DVec3 {
+    loop {
+        let v = DVec3::new(rng.normal(), rng.normal(), rng.normal());
+        if v.length() > 1e-6 {
+            return v.normalize();
+        }
+    }
+}
+
+/// `camera` after an SfM error: its orientation turned by `degrees` about a random axis, its
+/// centre moved by `distance` in a random direction.
+fn perturbed(camera: &Camera, degrees: f64, distance: f64, rng: &mut Rng) -> Camera {
+    let world_to_camera = rotation_of(camera);
+    let centre = DVec3::from(camera.position().map(f64::from));
+    let turn = DMat3::from_quat(DQuat::from_axis_angle(direction(rng), degrees.to_radians()));
+    // Camera-to-world R' = turn · Rᵀ_cw; world-to-camera is its transpose.
+    let camera_to_world = turn * world_to_camera.transpose();
+    let centre = centre + direction(rng) * distance;
+    let rotation = camera_to_world.transpose();
+    let t = -(rotation * centre);
+    let mut out = *camera;
+    for i in 0..3 {
+        for j in 0..3 {
+            out.world_to_camera[i][j] = rotation.col(j)[i] as f32;
+        }
+        out.world_to_camera[i][3] = t[i] as f32;
+    }
+    out
+}
+
+/// The pelvis joint at rest for shape `betas`: `J₀ = Σ_v R₀ᵥ (T_v + Σ_s S_vs β_s)`.
+pub fn rest_pelvis(model: &BodyModel, betas: &[f64]) -> DVec3 {
+    let v = model.vertex_count();
+    let s = model.shape_count();
+    let mut j0 = DVec3::ZERO;
+    for k in 0..v {
+        let w = f64::from(model.joint_regressor[k]);
+        if w == 0.0 {
+            continue;
+        }
+        let mut p = [0.0; 3];
+        for (c, value) in p.iter_mut().enumerate() {
+            *value = f64::from(model.template[3 * k + c])
+                + (0..s.min(betas.len()))
+                    .map(|b| f64::from(model.shape_dirs[(3 * k + c) * s + b]) * betas[b])
+                    .sum::<f64>();
+        }
+        j0 += w * DVec3::from(p);
+    }
+    j0
+}
+
+/// A world-space body track expressed in each frame's camera frame: the root rotation becomes
+/// `R_cw R_root` and the translation `R_cw (J₀ + t) + t_cw − J₀` so the posed body lands where
+/// it was (SMPL rotates the root about the rest pelvis `J₀`).
+pub fn to_camera_space(
+    track: &PoseSequence,
+    cameras: &[Camera],
+    model: &BodyModel,
+) -> PoseSequence {
+    let mut out = track.clone();
+    for (f, camera) in cameras.iter().enumerate().take(track.frames()) {
+        let rcw = rotation_of(camera);
+        let tcw = DVec3::from(camera.world_to_camera.map(|r| f64::from(r[3])));
+        let j0 = rest_pelvis(model, track.frame_betas(f));
+        let pose = track.pose(f);
+        let root = DVec3::new(pose[0], pose[1], pose[2]);
+        let root = if root.length() > 0.0 {
+            DMat3::from_axis_angle(root.normalize(), root.length())
+        } else {
+            DMat3::IDENTITY
+        };
+        let (axis, angle) = DQuat::from_mat3(&(rcw * root)).to_axis_angle();
+        let t = DVec3::from(track.translation(f));
+        let translation = rcw * (j0 + t) + tcw - j0;
+        let j = track.joints;
+        out.poses[f * 3 * j..f * 3 * j + 3].copy_from_slice(&(axis * angle).to_array());
+        out.translations[3 * f..3 * f + 3].copy_from_slice(&translation.to_array());
+    }
+    out
+}
+
+/// The given normal map of an acting view: true camera-frame normals on the person, turned by
+/// one random rotation (`degrees` RMS) and box-blurred over the person's 3×3 neighbourhoods.
+fn noisy_normals(view: &ViewTruth, mask: &[bool], degrees: f64, rng: &mut Rng) -> Vec<f32> {
+    let (w, h) = (view.render.width, view.render.height);
+    let rcw = rotation_of(&view.camera);
+    let turn = DMat3::from_quat(DQuat::from_axis_angle(
+        direction(rng),
+        (degrees * rng.normal()).to_radians(),
+    ));
+    let camera_frame: Vec<DVec3> = view
+        .render
+        .normal
+        .iter()
+        .zip(mask)
+        .map(|(n, &m)| {
+            if m {
+                turn * (rcw * DVec3::from(n.map(f64::from)))
+            } else {
+                DVec3::ZERO
+            }
+        })
+        .collect();
+    let mut out = vec![0.0f32; w * h * 3];
+    for y in 0..h {
+        for x in 0..w {
+            let p = y * w + x;
+            if !mask[p] {
+                continue;
+            }
+            let mut sum = DVec3::ZERO;
+            for (dx, dy) in (-1i64..=1).flat_map(|dy| (-1i64..=1).map(move |dx| (dx, dy))) {
+                let (xx, yy) = (x as i64 + dx, y as i64 + dy);
+                if xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h {
+                    let q = yy as usize * w + xx as usize;
+                    if mask[q] {
+                        sum += camera_frame[q];
+                    }
+                }
+            }
+            let n = sum.normalize_or_zero();
+            out[3 * p..3 * p + 3].copy_from_slice(&n.as_vec3().to_array());
+        }
+    }
+    out
+}
+
+/// True camera-frame normals on the person, zero elsewhere.
+fn true_normals(view: &ViewTruth, mask: &Mask) -> Vec<[f32; 3]> {
+    let rcw = rotation_of(&view.camera);
+    view.render
+        .normal
+        .iter()
+        .zip(&mask.data)
+        .map(|(n, &m)| {
+            if m {
+                (rcw * DVec3::from(n.map(f64::from))).as_vec3().to_array()
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect()
+}
+
+/// Floor pixels: surroundings whose back-projected point is within 1 cm of y = 0.
+fn floor_mask(view: &ViewTruth) -> Mask {
+    let (w, h) = (view.render.width, view.render.height);
+    let c = view.camera;
+    let rcw = rotation_of(&c);
+    let t = DVec3::from(c.world_to_camera.map(|r| f64::from(r[3])));
+    let data = (0..w * h)
+        .map(|p| {
+            let d = f64::from(view.render.depth[p]);
+            if !d.is_finite() || view.render.label[p] == 0 {
+                return false;
+            }
+            let (x, y) = ((p % w) as f64 + 0.5, (p / w) as f64 + 0.5);
+            let cam = DVec3::new(
+                d * (x - f64::from(c.cx)) / f64::from(c.fx),
+                d * (y - f64::from(c.cy)) / f64::from(c.fy),
+                d,
+            );
+            let world = rcw.transpose() * (cam - t);
+            world.y.abs() < 0.01
+        })
+        .collect();
+    Mask::new(w, h, data)
+}
+
+/// The scene scan's cameras: half on a 2.8 m loop at 1.2 m looking in across the room, half on
+/// a 0.8 m loop at 1.7 m looking out at the walls, each aim jittered.
+fn scan_loops(views: usize, fov_x_degrees: f32, w: u32, h: u32, rng: &mut Rng) -> Vec<Camera> {
+    let inner = views / 2;
+    (0..views)
+        .map(|k| {
+            let outer = k >= inner;
+            let (n, i) = if outer {
+                (views - inner, k - inner)
+            } else {
+                (inner, k)
+            };
+            let angle =
+                std::f64::consts::TAU * (i as f64 + 0.5 * f64::from(u8::from(outer))) / n as f64;
+            let (radius, height, look) = if outer {
+                (0.8, 1.7, 3.5)
+            } else {
+                (2.8, 1.2, -1.5)
+            };
+            let position = [radius * angle.sin(), height, radius * angle.cos()];
+            let target = [
+                look * angle.sin() + rng.range(-0.2, 0.2),
+                if outer { 1.0 } else { 0.5 } + rng.range(-0.2, 0.2),
+                look * angle.cos() + rng.range(-0.2, 0.2),
+            ];
+            Camera::look_at(
+                position.map(|v| v as f32),
+                target.map(|v| v as f32),
+                [0.0, 1.0, 0.0],
+                fov_x_degrees,
+                w,
+                h,
+            )
+        })
+        .collect()
+}
+
+impl Prior4dDataConfig {
+    /// Builds and renders the capture.
+    pub fn build(&self, device: &Device) -> Result<Prior4dCapture, Prior4dError> {
+        self.validate()
+            .map_err(|problem| Prior4dError::input("data", problem))?;
+        let (w, h) = (self.width as usize, self.height as usize);
+        let model = &builtin_body().model;
+        let mut rng = Rng(self.seed ^ 0x9414_0000);
+        let mut acting_scene = SceneConfig {
+            width: self.width,
+            height: self.height,
+            frames: Some(self.acting_frames),
+            noise: self.noise,
+            supersample: self.supersample,
+            clothing_relief: true,
+            ..SceneConfig::new(Preset::Monocular, self.seed)
+        }
+        .build(device);
+        acting_scene.people[0].clothed = true;
+        let fps = acting_scene.fps;
+        let lens_camera = acting_scene.tracks[0].cameras[0];
+        let fov = 2.0
+            * (0.5 * self.width as f32 / lens_camera.fx)
+                .atan()
+                .to_degrees();
+
+        // The scene scan: the room without the person.
+        let scan_cameras = scan_loops(self.scene_views, fov, self.width, self.height, &mut rng);
+        let scene_scan_scene = Scene {
+            frame_count: scan_cameras.len(),
+            tracks: vec![CameraTrack {
+                name: "scene_scan".into(),
+                cameras: scan_cameras,
+            }],
+            ..acting_scene.clone()
+        };
+        let scale = self.scene_scale;
+        let scene_truths: Vec<ViewTruth> = (0..self.scene_views)
+            .into_par_iter()
+            .map(|k| scene_scan_scene.render_view(k, 0, false))
+            .collect();
+        let mut scene_points = InitPoints::default();
+        let mut scene_scan = Vec::with_capacity(scene_truths.len());
+        for truth in &scene_truths {
+            let image = srgb(truth, self.scan_gain);
+            let camera = scaled_camera(&truth.camera, scale);
+            let depth: Vec<f32> = truth
+                .render
+                .depth
+                .iter()
+                .map(|&d| (f64::from(d) * scale) as f32)
+                .collect();
+            back_project(&camera, &depth, &image, 4, &mut scene_points);
+            let (a, b) = (rng.range(0.5, 2.0), rng.range(0.0, 0.2));
+            let mono: Vec<f32> = depth
+                .iter()
+                .map(|&d| {
+                    if d.is_finite() && d > 0.0 {
+                        ((a / f64::from(d) + b) * (1.0 + 0.03 * rng.normal())) as f32
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            scene_scan.push(SceneScanView {
+                camera,
+                image: image_tensor(image, w, h, device),
+                mono_inverse_depth: Tensor::from_data(TensorData::new(mono, [h, w]), device),
+                depth,
+                ground: jittered(floor_mask(truth), self.mask_jitter, &mut rng),
+            });
+        }
+        let scene_background = acting_scene.environment.background.map(linear_to_srgb);
+
+        // The human scan: the same identity standing still, a ring of cameras, an empty studio.
+        let identity = acting_scene.people[0].identity.clone();
+        let true_betas = identity.betas.clone();
+        let standing = generate(
+            &[Motion::Idle {
+                seconds: self.scan_views as f64 / fps,
+            }],
+            Start {
+                position: [0.0, 0.0],
+                heading: 0.0,
+                standing_height: standing_height(&identity.betas, device),
+            },
+            fps,
+        );
+        let mut scanned = Person::new(
+            identity,
+            &standing,
+            &[],
+            &self.noise,
+            self.seed ^ 0x5CA7,
+            device,
+        );
+        scanned.clothed = true;
+        let scan_frames = scanned.motion.frames().min(self.scan_views);
+        let human_scan_scene = Scene {
+            frame_count: scan_frames,
+            environment: Environment::default(),
+            people: vec![scanned],
+            tracks: vec![CameraTrack {
+                name: "human_scan".into(),
+                cameras: ring(
+                    scan_frames,
+                    2.2,
+                    -8.0,
+                    DVec3::new(0.0, 0.9, 0.0),
+                    splatzoo_datasets::synth::rig::Lens {
+                        width: self.width,
+                        height: self.height,
+                        fov_x_degrees: 50.0,
+                    },
+                ),
+            }],
+            ..acting_scene.clone()
+        };
+        let scan_truths: Vec<ViewTruth> = (0..scan_frames)
+            .into_par_iter()
+            .map(|k| human_scan_scene.render_view(k, 0, true))
+            .collect();
+        let human_scan = scan_truths
+            .iter()
+            .map(|truth| HumanScanView {
+                camera: truth.camera,
+                image: image_tensor(srgb(truth, self.scan_gain), w, h, device),
+                mask: mask_tensor(
+                    &jittered(
+                        Mask::new(w, h, truth.human_mask()),
+                        self.mask_jitter,
+                        &mut rng,
+                    ),
+                    device,
+                ),
+            })
+            .collect();
+        let scan_prior = human_scan_scene.people[0].prior.clone();
+        let scan_background = human_scan_scene.environment.background.map(linear_to_srgb);
+
+        // The acting video and the evaluation camera, frame by frame.
+        let mut acting = Vec::with_capacity(self.acting_frames);
+        let mut eval = Vec::with_capacity(self.acting_frames);
+        for t in 0..acting_scene.frame_count {
+            let mut truths = acting_scene.render_tracks(t, &[0, 1], true).into_iter();
+            let (act, fixed) = (
+                truths.next().expect("the hand-held view"),
+                truths.next().expect("the fixed view"),
+            );
+            let person = jittered(
+                Mask::new(w, h, act.human_mask()),
+                self.mask_jitter,
+                &mut rng,
+            );
+            let normals =
+                noisy_normals(&act, &act.human_mask(), self.normal_noise_degrees, &mut rng);
+            let true_camera = scaled_camera(&act.camera, scale);
+            acting.push(ActingFrame {
+                camera: perturbed(
+                    &true_camera,
+                    self.camera_rotation_noise_degrees,
+                    self.camera_translation_noise * scale,
+                    &mut rng,
+                ),
+                true_camera,
+                image: image_tensor(srgb(&act, self.acting_gain), w, h, device),
+                mask: mask_tensor(&person, device),
+                normals: Tensor::from_data(TensorData::new(normals, [h, w, 3]), device),
+            });
+            let eval_mask = Mask::new(w, h, fixed.human_mask());
+            eval.push(EvalFrame {
+                camera: scaled_camera(&fixed.camera, scale),
+                image: image_tensor(srgb(&fixed, self.acting_gain), w, h, device),
+                normals: true_normals(&fixed, &eval_mask),
+                mask: eval_mask,
+            });
+        }
+        let metre_cameras = &acting_scene.tracks[0].cameras;
+        let person = &acting_scene.people[0];
+        let acting_prior = to_camera_space(&person.prior, metre_cameras, model);
+        let acting_truth = to_camera_space(&person.motion, metre_cameras, model);
+        let decisions = vec![format!(
+            "synthetic Prior-4D capture, seed {}: scene scan {} views, human scan {} views, \
+             acting video {} frames + a fixed evaluation camera, {}×{}; scene units of 1/{} m \
+             (σ* = {}), scan gain {:?}, acting gain {:?}",
+            self.seed,
+            scene_scan.len(),
+            scan_frames,
+            acting.len(),
+            self.width,
+            self.height,
+            scale,
+            scale,
+            self.scan_gain,
+            self.acting_gain
+        )];
+        Ok(Prior4dCapture {
+            scene_scan,
+            scene_points,
+            scene_background,
+            human_scan,
+            scan_prior,
+            scan_background,
+            acting,
+            acting_prior,
+            acting_truth,
+            eval,
+            true_betas,
+            scale,
+            fps,
+            decisions,
+        })
+    }
+}

@@ -1,0 +1,181 @@
+//! Stage D's scores (§5.1.2 of Prior-4D and the spec's additions), at the synchronised
+//! evaluation camera, which no stage trains on: PSNR, SSIM (and 1 − SSIM, the paper's
+//! "D-SSIM"), LPIPS where weights are given; the avatar's normal angle error (mean, median)
+//! against the true normals inside the true person mask where the avatar covers it; the mask
+//! IoU of the rendered avatar (alpha > 0.5) against the true mask. The avatar is placed by the
+//! (refined) acting camera of the same frame. On the acting frames: |σ/σ* − 1|, the foot
+//! penetration rate against the true floor (lowest foot vertex more than Δ_c below it) and the
+//! mean height of the 25 lowest foot vertices, the acting cameras' error (centre RMS in metres,
+//! mean rotation in degrees) and the joint error of the refined body track (camera frame, mm).
+
+use crate::avatar::posed_avatar;
+use crate::camera::{RigidFrame, camera_to_world};
+use crate::data::Prior4dCapture;
+use crate::error::Prior4dError;
+use crate::joint::JointStage;
+use crate::locate::place;
+use burn::tensor::Tensor;
+use serde::{Deserialize, Serialize};
+use splatzoo_models::body::builtin_body;
+use splatzoo_train::avatar::{mpjpe_mm, track_joints};
+use splatzoo_train::host_f32;
+use splatzoo_train::loss::{psnr, scalar, ssim};
+use splatzoo_train::lpips::Lpips;
+
+/// Everything one evaluation reports.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct JointScores {
+    pub psnr: f64,
+    pub ssim: f64,
+    pub one_minus_ssim: f64,
+    pub lpips: Option<f64>,
+    pub normal_mean_degrees: f64,
+    pub normal_median_degrees: f64,
+    pub mask_iou: f64,
+    pub sigma: f64,
+    pub sigma_star: f64,
+    pub sigma_error: f64,
+    pub penetration_rate: f64,
+    pub foot_height_mm: f64,
+    pub camera_centre_rms_mm: f64,
+    pub camera_rotation_degrees: f64,
+    pub mpjpe_mm: f64,
+    pub prior_mpjpe_mm: f64,
+    pub frames: usize,
+}
+
+fn angle_degrees(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let dot: f64 = (0..3).map(|k| a[k] * b[k]).sum();
+    let la = a.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let lb = b.iter().map(|v| v * v).sum::<f64>().sqrt();
+    (dot / (la * lb)).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+fn rotation_angle_degrees(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> f64 {
+    let trace: f64 = (0..3)
+        .map(|i| (0..3).map(|k| a[i][k] * b[i][k]).sum::<f64>())
+        .sum();
+    ((trace - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+fn rows3(t: &Tensor<2>) -> Vec<[f64; 3]> {
+    host_f32(t)
+        .chunks(3)
+        .map(|r| [f64::from(r[0]), f64::from(r[1]), f64::from(r[2])])
+        .collect()
+}
+
+impl JointStage {
+    /// Scores now; `sigma_star` is the true global scale for this avatar's body.
+    pub fn evaluate(
+        &self,
+        capture: &Prior4dCapture,
+        refine: bool,
+        stride: usize,
+        sigma_star: f64,
+        lpips: Option<&Lpips>,
+    ) -> Result<JointScores, Prior4dError> {
+        let scene = self.scene_splats(capture);
+        let frames: Vec<usize> = (0..capture.eval.len()).step_by(stride.max(1)).collect();
+        let (mut p, mut s, mut lp, mut iou) = (0.0, 0.0, 0.0, 0.0);
+        let mut angles = Vec::new();
+        for &t in &frames {
+            let eval = &capture.eval[t];
+            let acting = self.acting_view(capture, t, refine, None);
+            let avatar = self.placed_avatar(capture, t, &acting, self.log_sigma.clone());
+            let view = RigidFrame::of_camera(&eval.camera, &self.log_sigma.device());
+            let layers = self.layers(
+                Some(&scene),
+                Some(&avatar),
+                &view,
+                &eval.camera,
+                capture.scene_background,
+            )?;
+            let image = layers.color.clamp(0.0, 1.0);
+            p += psnr(image.clone(), eval.image.clone());
+            s += scalar(ssim(image.clone(), eval.image.clone()));
+            if let Some(l) = lpips {
+                lp += scalar(l.distance(image, eval.image.clone()));
+            }
+            let alpha = host_f32(&layers.avatar_alpha);
+            let normal = host_f32(&layers.normal);
+            let (mut inter, mut union) = (0usize, 0usize);
+            for (k, &a) in alpha.iter().enumerate() {
+                let ours = a > 0.5;
+                let truth = eval.mask.data[k];
+                inter += usize::from(ours && truth);
+                union += usize::from(ours || truth);
+                if ours && truth {
+                    let n = [0, 1, 2].map(|c| f64::from(normal[3 * k + c]));
+                    let m = eval.normals[k].map(f64::from);
+                    angles.push(angle_degrees(n, m));
+                }
+            }
+            iou += if union == 0 {
+                1.0
+            } else {
+                inter as f64 / union as f64
+            };
+        }
+        let n = frames.len().max(1) as f64;
+        angles.sort_by(f64::total_cmp);
+        let mean_angle = angles.iter().sum::<f64>() / angles.len().max(1) as f64;
+        let median_angle = angles.get(angles.len() / 2).copied().unwrap_or(90.0);
+
+        // Feet against the true floor (y = 0 in scene units) and the cameras against the truth.
+        let scale = capture.scale;
+        let margin = 0.02 * scale;
+        let (mut penetrating, mut heights, mut centre_sq, mut rotation_err) =
+            (0usize, 0.0, 0.0, 0.0);
+        for t in 0..capture.acting.len() {
+            let view = self.acting_view(capture, t, refine, None);
+            let posed = posed_avatar(&self.avatar, t, &capture.acting[t].camera, &self.faces);
+            let placed = place(posed.splats, self.log_sigma.clone(), &view);
+            let means = rows3(&placed.means);
+            let mut feet: Vec<f64> = self.feet.iter().map(|&k| means[k][1]).collect();
+            feet.sort_by(f64::total_cmp);
+            if feet.first().is_some_and(|&h| h < -margin) {
+                penetrating += 1;
+            }
+            let lowest = &feet[..feet.len().min(25)];
+            heights += lowest.iter().sum::<f64>() / lowest.len().max(1) as f64;
+            let (r_true, c_true) = camera_to_world(&capture.acting[t].true_camera);
+            let r = rows3(&view.rotation);
+            let c = host_f32(&view.centre);
+            centre_sq += (0..3)
+                .map(|k| (f64::from(c[k]) - c_true[k]).powi(2))
+                .sum::<f64>();
+            rotation_err += rotation_angle_degrees([r[0], r[1], r[2]], r_true);
+        }
+        let f = capture.acting.len().max(1) as f64;
+
+        let device = self.log_sigma.device();
+        let model = &builtin_body().model;
+        let truth = track_joints(model, &capture.acting_truth, &device);
+        let prior = track_joints(model, &capture.acting_prior, &device);
+        let refined: Vec<Tensor<2>> = (0..capture.acting.len())
+            .map(|t| self.avatar.joint_positions(t))
+            .collect();
+        let refined = Tensor::stack::<3>(refined, 0);
+        let sigma = self.sigma();
+        Ok(JointScores {
+            psnr: p / n,
+            ssim: s / n,
+            one_minus_ssim: 1.0 - s / n,
+            lpips: lpips.map(|_| lp / n),
+            normal_mean_degrees: mean_angle,
+            normal_median_degrees: median_angle,
+            mask_iou: iou / n,
+            sigma,
+            sigma_star,
+            sigma_error: (sigma / sigma_star - 1.0).abs(),
+            penetration_rate: penetrating as f64 / f,
+            foot_height_mm: heights / f / scale * 1000.0,
+            camera_centre_rms_mm: (centre_sq / f).sqrt() / scale * 1000.0,
+            camera_rotation_degrees: rotation_err / f,
+            mpjpe_mm: mpjpe_mm(refined, truth.clone()),
+            prior_mpjpe_mm: mpjpe_mm(prior, truth),
+            frames: frames.len(),
+        })
+    }
+}

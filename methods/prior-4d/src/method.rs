@@ -1,0 +1,412 @@
+//! The four stages as one harness [`Method`]: steps `[0, A)` train the scene prior on the
+//! scene scan, `[A, A + B)` the avatar prior on the human scan, and at `A + B` stage C
+//! initialises stage D (floor plane, σ₀, the scan avatar carried onto the acting prior), which
+//! runs to `iterations`. One checkpoint holds every stage's state; a resumed run rebuilds the
+//! capture from its seed and continues bit-exactly on the CPU.
+
+use crate::avatar::avatar_model;
+use crate::avatar_stage::{AvatarStage, SCAN_AVATAR};
+use crate::config::Prior4dConfig;
+use crate::data::Prior4dCapture;
+use crate::error::Prior4dError;
+use crate::eval::JointScores;
+use crate::joint::{AVATAR, JOINT_SCENE, JointStage};
+use crate::scene_stage::{SCENE, SceneStage};
+use burn::module::Module;
+use burn::tensor::Device;
+use splatzoo_datasets::synth::scene::standing_height;
+use splatzoo_models::body::BodyModel;
+use splatzoo_models::networks::weights::{WeightFile, load_module, module_tensors};
+use splatzoo_train::TrainError;
+use splatzoo_train::checkpoint::Checkpoint;
+use splatzoo_train::harness::{EpochOrder, Evaluation, Method, Say, Scores, StepReport};
+use splatzoo_train::host_f32;
+use splatzoo_train::lpips::Lpips;
+use splatzoo_train::module_adam::{ModuleAdam, NETWORK_ADAM};
+use splatzoo_train::scene::SceneNode;
+use std::path::Path;
+
+/// The offset network's tensors live under this prefix in checkpoints.
+const OFFSETS: &str = "offsets";
+
+/// Which stage a step belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    Scene,
+    Avatar,
+    Joint,
+}
+
+/// Shorthands for the ablations (each one `--set` line).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct Prior4dArgs {
+    /// Without the normal loss (Eq. 6).
+    #[arg(long)]
+    pub no_normal: bool,
+    /// Without the contact loss (Eq. 7).
+    #[arg(long)]
+    pub no_contact: bool,
+    /// Without the Huber prior regulariser.
+    #[arg(long)]
+    pub no_huber: bool,
+    /// Without the pose-dependent offsets.
+    #[arg(long)]
+    pub no_pose_offsets: bool,
+    /// With the acting cameras fixed (the paper's comparison setting).
+    #[arg(long)]
+    pub no_camera_refinement: bool,
+    /// Every scene parameter free in stage D, not only its SH.
+    #[arg(long)]
+    pub free_scene: bool,
+}
+
+pub struct Prior4d {
+    pub config: Prior4dConfig,
+    pub capture: Prior4dCapture,
+    pub model: BodyModel,
+    pub scene: SceneStage,
+    pub avatar: AvatarStage,
+    pub joint: Option<JointStage>,
+    /// Stage D's scores before its first step: the priors alone (the spec's first baseline).
+    pub priors_only: Option<JointScores>,
+    pub step: usize,
+    decisions: Vec<String>,
+}
+
+impl Prior4d {
+    pub fn stage(&self, step: usize) -> Stage {
+        if step < self.config.avatar_start() {
+            Stage::Scene
+        } else if step < self.config.joint_start() {
+            Stage::Avatar
+        } else {
+            Stage::Joint
+        }
+    }
+
+    fn assemble(config: Prior4dConfig, device: &Device) -> Result<Self, Prior4dError> {
+        device.seed(config.seed);
+        let capture = config.data.build(device)?;
+        let model = avatar_model(config.avatar.subdivisions);
+        let scene = SceneStage::new(&capture, &config.scene, config.seed, device)?;
+        let avatar = AvatarStage::new(&capture, &model, &config.avatar, config.seed, device)?;
+        let mut decisions = capture.decisions.clone();
+        decisions.push(format!(
+            "stage A: scene prior on {} scan views ({} held out), {} starting points; stage B: \
+             avatar prior of {} Gaussians (built-in body, {} subdivision(s)) on {} scan views \
+             ({} held out); stage D on {} acting frames",
+            scene.train.len(),
+            scene.test.len(),
+            capture.scene_points.len(),
+            model.vertex_count(),
+            config.avatar.subdivisions,
+            avatar.train.len(),
+            avatar.test.len(),
+            capture.acting.len()
+        ));
+        Ok(Self {
+            config,
+            capture,
+            model,
+            scene,
+            avatar,
+            joint: None,
+            priors_only: None,
+            step: 0,
+            decisions,
+        })
+    }
+
+    /// The true global scale for the avatar's body: the scene scale × true / fitted standing
+    /// height.
+    pub fn sigma_star(&self) -> f64 {
+        let device = self.avatar.node.betas().device();
+        let fitted: Vec<f64> = host_f32(self.avatar.node.betas())
+            .into_iter()
+            .map(f64::from)
+            .collect();
+        let truth = standing_height(&self.capture.true_betas, &device);
+        self.capture.scale * truth / standing_height(&fitted, &device)
+    }
+
+    /// Stage C and a fresh stage D from the current scene and scan avatar.
+    fn start_joint(&self) -> Result<JointStage, Prior4dError> {
+        let device = self.scene.node.set.means.device();
+        let degree = SceneStage::sh_degree(&self.config.scene, self.config.scene.steps);
+        JointStage::new(
+            &self.capture,
+            &self.model,
+            &self.config,
+            &self.scene.node.set.splats(),
+            self.scene.extent,
+            degree,
+            &self.avatar.node,
+            &device,
+        )
+    }
+
+    fn joint_scores(
+        &self,
+        joint: &JointStage,
+        lpips: Option<&Lpips>,
+    ) -> Result<JointScores, Prior4dError> {
+        joint.evaluate(
+            &self.capture,
+            self.config.joint.camera_refinement,
+            self.config.joint.eval_stride,
+            self.sigma_star(),
+            lpips,
+        )
+    }
+
+    fn train_step(&mut self) -> Result<StepReport, Prior4dError> {
+        let (a, d0) = (self.config.avatar_start(), self.config.joint_start());
+        let step = self.step;
+        let mut note = None;
+        let loss = match self.stage(step) {
+            Stage::Scene => self.scene.step(&self.capture, &self.config.scene, step)?,
+            Stage::Avatar => self
+                .avatar
+                .step(&self.capture, step - a, self.config.avatar.steps)?,
+            Stage::Joint => {
+                if self.joint.is_none() {
+                    let joint = self.start_joint()?;
+                    let scores = self.joint_scores(&joint, None)?;
+                    note = Some(format!(
+                        "stage C: floor from {} of {} ground points (RMS {:.4}), σ₀ = {:.4} \
+                         (σ* = {:.4}); priors alone: PSNR {:.2} dB, mask IoU {:.3}",
+                        joint.init.fit.inliers.len(),
+                        joint.init.candidates,
+                        joint.init.fit.rms,
+                        joint.init.sigma0,
+                        self.sigma_star(),
+                        scores.psnr,
+                        scores.mask_iou
+                    ));
+                    self.priors_only = Some(scores);
+                    self.joint = Some(joint);
+                }
+                let joint = self.joint.as_mut().expect("stage D exists");
+                let steps = self.config.iterations - d0;
+                let terms = joint.step(&self.capture, &self.config, step - d0, steps)?;
+                terms.photo + terms.normal + terms.contact + terms.huber
+            }
+        };
+        self.step += 1;
+        Ok(StepReport { loss, note })
+    }
+
+    fn order(&self) -> &EpochOrder {
+        match (&self.joint, self.stage(self.step)) {
+            (Some(joint), _) => &joint.order,
+            (None, Stage::Scene) => &self.scene.order,
+            (None, _) => &self.avatar.order,
+        }
+    }
+}
+
+fn load_offsets(joint: &mut JointStage, checkpoint: &Checkpoint) -> Result<(), TrainError> {
+    let prefix = format!("{OFFSETS}.");
+    let tensors = checkpoint
+        .tensors
+        .iter()
+        .filter_map(|(k, v)| {
+            k.strip_prefix(&prefix)
+                .filter(|rest| !rest.starts_with("optimizer."))
+                .map(|rest| (rest.to_owned(), v.clone()))
+        })
+        .collect();
+    let file = WeightFile::new(checkpoint.origin.clone(), tensors);
+    joint.offsets = load_module(joint.offsets.clone(), &file)?.train();
+    joint.offsets_adam = ModuleAdam::load_under(
+        NETWORK_ADAM,
+        &joint.offsets,
+        checkpoint,
+        &format!("{OFFSETS}.optimizer"),
+    )?;
+    Ok(())
+}
+
+impl Method for Prior4d {
+    const NAME: &'static str = "prior4d";
+    const FORMAT: &'static str = "splatzoo-prior4d-1";
+    const ABOUT: &'static str =
+        "Prior-4D: a scene prior and an avatar prior refined jointly on a monocular acting video";
+    type Config = Prior4dConfig;
+    type Args = Prior4dArgs;
+
+    fn overrides(args: &Prior4dArgs) -> Vec<String> {
+        let mut sets = Vec::new();
+        let mut off = |on: bool, set: &str| {
+            if on {
+                sets.push(set.to_owned());
+            }
+        };
+        off(args.no_normal, "joint.normal=0.0");
+        off(args.no_contact, "joint.contact=0.0");
+        off(args.no_huber, "joint.huber=0.0");
+        off(args.no_pose_offsets, "joint.pose_offsets=false");
+        off(args.no_camera_refinement, "joint.camera_refinement=false");
+        off(args.free_scene, "joint.free_scene=true");
+        sets
+    }
+
+    fn new(config: Prior4dConfig, device: &Device) -> Result<Self, TrainError> {
+        Ok(Self::assemble(config, device)?)
+    }
+
+    fn resume(
+        config: Prior4dConfig,
+        checkpoint: &Checkpoint,
+        device: &Device,
+    ) -> Result<Self, TrainError> {
+        let mut method = Self::assemble(config, device)?;
+        method.scene.node.load(checkpoint, SCENE, device)?;
+        method.avatar.node.load(checkpoint, SCAN_AVATAR, device)?;
+        method.step = checkpoint.meta_parsed("step")?;
+        match method.stage(method.step) {
+            Stage::Scene => {
+                method.scene.order = EpochOrder::load(checkpoint, method.scene.train.len())?
+            }
+            Stage::Avatar => {
+                method.avatar.order = EpochOrder::load(checkpoint, method.avatar.train.len())?
+            }
+            Stage::Joint if method.step > method.config.joint_start() => {
+                let mut joint = method.start_joint()?;
+                joint.scene.load(checkpoint, JOINT_SCENE, device)?;
+                joint.avatar.load(checkpoint, AVATAR, device)?;
+                load_offsets(&mut joint, checkpoint)?;
+                joint.attach_offsets(&method.config);
+                let frames = method.capture.acting.len();
+                joint.log_sigma = checkpoint.tensor("sigma.log", [Some(1)], device)?;
+                joint.sigma_adam = splatzoo_train::adam::AdamState::load(
+                    checkpoint,
+                    "sigma.log",
+                    &joint.log_sigma,
+                )?;
+                joint.camera_rotation =
+                    checkpoint.tensor("cameras.rotation", [Some(frames), Some(3)], device)?;
+                joint.camera_translation =
+                    checkpoint.tensor("cameras.translation", [Some(frames), Some(3)], device)?;
+                joint.rotation_adam = splatzoo_train::adam::AdamState::load(
+                    checkpoint,
+                    "cameras.rotation",
+                    &joint.camera_rotation,
+                )?;
+                joint.translation_adam = splatzoo_train::adam::AdamState::load(
+                    checkpoint,
+                    "cameras.translation",
+                    &joint.camera_translation,
+                )?;
+                joint.order = EpochOrder::load(checkpoint, frames)?;
+                if let Ok(json) = checkpoint.meta("priors_only") {
+                    method.priors_only = serde_json::from_str(json).ok();
+                }
+                method.joint = Some(joint);
+            }
+            Stage::Joint => {}
+        }
+        Ok(method)
+    }
+
+    fn steps(&self) -> usize {
+        self.step
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "scene scan {} views, human scan {} views, acting {} frames; scene prior {} Gaussians, \
+             avatar {} Gaussians",
+            self.capture.scene_scan.len(),
+            self.capture.human_scan.len(),
+            self.capture.acting.len(),
+            self.scene.node.gaussians(),
+            self.avatar.node.gaussians()
+        )
+    }
+
+    fn decisions(&self) -> Vec<String> {
+        self.decisions.clone()
+    }
+
+    fn step(&mut self) -> Result<StepReport, TrainError> {
+        Ok(self.train_step()?)
+    }
+
+    fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError> {
+        let degree =
+            SceneStage::sh_degree(&self.config.scene, self.step.min(self.config.scene.steps));
+        let (scene_psnr, scene_ssim) = self.scene.evaluate(&self.capture, degree)?;
+        let mut evaluation = match &self.joint {
+            Some(joint) => {
+                let scores = self.joint_scores(joint, lpips)?;
+                Evaluation::new(
+                    self.step,
+                    Scores {
+                        psnr: scores.psnr,
+                        ssim: scores.ssim,
+                        lpips: scores.lpips,
+                    },
+                )
+                .with("scores", "evaluation camera, full image")
+                .with("joint", serde_json::to_value(&scores).expect("plain data"))
+            }
+            None => Evaluation::new(
+                self.step,
+                Scores {
+                    psnr: scene_psnr,
+                    ssim: scene_ssim,
+                    lpips: None,
+                },
+            )
+            .with(
+                "scores",
+                "scene scan, held-out views (stage D has not started)",
+            ),
+        };
+        evaluation = evaluation.with("scene_prior_psnr", scene_psnr).with(
+            "avatar_prior_masked_psnr",
+            self.avatar.evaluate(&self.capture)?,
+        );
+        if let Some(p) = &self.priors_only {
+            evaluation =
+                evaluation.with("priors_only", serde_json::to_value(p).expect("plain data"));
+        }
+        Ok(evaluation)
+    }
+
+    fn checkpoint(&self) -> Checkpoint {
+        let mut c = Checkpoint::default();
+        self.scene.node.save(&mut c, SCENE);
+        self.avatar.node.save(&mut c, SCAN_AVATAR);
+        if let Some(joint) = &self.joint {
+            joint.scene.save(&mut c, JOINT_SCENE);
+            joint.avatar.save(&mut c, AVATAR);
+            for (k, v) in module_tensors(&joint.offsets) {
+                c.tensors.insert(format!("{OFFSETS}.{k}"), v);
+            }
+            joint
+                .offsets_adam
+                .save_under(&joint.offsets, &mut c, &format!("{OFFSETS}.optimizer"));
+            c.put("sigma.log", &joint.log_sigma);
+            joint.sigma_adam.save(&mut c, "sigma.log");
+            c.put("cameras.rotation", &joint.camera_rotation);
+            c.put("cameras.translation", &joint.camera_translation);
+            joint.rotation_adam.save(&mut c, "cameras.rotation");
+            joint.translation_adam.save(&mut c, "cameras.translation");
+            if let Some(p) = &self.priors_only {
+                c.put_meta("priors_only", serde_json::to_string(p).expect("plain data"));
+            }
+        }
+        self.order().save(&mut c);
+        c
+    }
+
+    fn finish(
+        &self,
+        run: &Path,
+        say: &mut dyn Say,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError> {
+        crate::export::write_outputs(self, run, say)
+    }
+}
