@@ -7,8 +7,9 @@
 
 use burn::tensor::{Device, IndexingUpdateOp, Int, Tensor, TensorData};
 
-/// Added to a summed normal's squared length before the root: below it the sum counts as zero (an isolated vertex or a degenerate
-/// fan) and the result is the zero vector with a zero gradient instead of a NaN.
+/// Added to a summed normal's squared length before the root, so a zero sum (a vertex no face
+/// touches) gives the zero vector with a zero gradient instead of a NaN. A fan that collapses to
+/// zero area still gets a finite gradient, but a large one: its normal is undefined there.
 pub const NORMAL_EPS: f64 = 1e-30;
 
 /// One corner's vertex index per face, `[F]`.
@@ -51,7 +52,7 @@ pub fn vertex_normals(vertices: Tensor<3>, faces: &[u32]) -> Tensor<3> {
     for idx in corners {
         sum = sum.select_assign(1, idx, face_normals.clone(), IndexingUpdateOp::Add);
     }
-    // The eps inside the root keeps zero sums at zero with a finite (zero) gradient.
+    // The eps inside the root keeps zero sums at zero with a finite gradient.
     let length = (sum.clone().powi_scalar(2).sum_dim(2) + NORMAL_EPS).sqrt();
     sum / length
 }

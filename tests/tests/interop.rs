@@ -2,12 +2,14 @@
 //! project's readers (`.ply`, checkpoints with their format tags, `metrics.json` as the
 //! harness's history, PNG renders, ONNX graphs in tract), and checkpoints carried from one
 //! process to another (resumed bit-exactly on the CPU, read by `render`, `drive-nlf` and
-//! `animate-avatar`; `train-apf` resumed across processes).
+//! `animate-avatar`; `train-apf` and `train-prior4d` resumed across processes, the latter from
+//! inside stage B and inside stage D).
 
 use burn::tensor::Device;
 use splatzoo_apf_gs::trainer::ApfTrainer;
 use splatzoo_nlf_gs::onnx;
 use splatzoo_nlf_gs::trainer::NlfTrainer;
+use splatzoo_prior_4d::Prior4d;
 use splatzoo_train::avatar::AvatarTrainer;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::harness::{History, Method, check_format};
@@ -378,6 +380,111 @@ fn train_apf_outputs_read_back_and_resume_across_processes() {
         &saved,
         &dir.path().join("runs/apf/c/checkpoint.safetensors"),
     );
+}
+
+#[test]
+fn train_prior4d_outputs_read_back_and_resume_across_stages_and_processes() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = [
+        "--iterations",
+        "26",
+        "--set",
+        "data.width=64",
+        "--set",
+        "data.height=48",
+        "--set",
+        "data.acting_frames=6",
+        "--set",
+        "data.scene_views=8",
+        "--set",
+        "data.scan_views=6",
+        "--set",
+        "data.supersample=1",
+        "--set",
+        "data.scene_points=3000",
+        "--set",
+        "scene.steps=10",
+        "--set",
+        "scene.densify.start=2",
+        "--set",
+        "scene.densify.stop=8",
+        "--set",
+        "scene.densify.every=4",
+        "--set",
+        "avatar.steps=8",
+        "--set",
+        "avatar.subdivisions=0",
+        "--set",
+        "avatar.holdout_every=3",
+        "--set",
+        "plane.min_opacity=0.05",
+        "--set",
+        "joint.eval_stride=3",
+        "--set",
+        "checkpoint_every=0",
+    ];
+    let with = |extra: &[&str]| -> Vec<String> {
+        small.iter().chain(extra).map(|s| s.to_string()).collect()
+    };
+    let out = run(dir.path(), "train-prior4d", &strs(&with(&["--name", "a"])));
+    assert!(out.status.success(), "{}", text(&out));
+    let run_dir = dir.path().join("runs/prior4d/a");
+    let saved = run_dir.join("checkpoint.safetensors");
+    check_format(&Checkpoint::read(&saved).unwrap(), Prior4d::FORMAT).unwrap();
+    let metrics = history(&run_dir.join("metrics.json"));
+    assert_eq!(metrics.method, "prior4d");
+    let last = metrics
+        .evaluations
+        .last()
+        .expect("an evaluation at the end");
+    assert!(last.scores.psnr.is_finite());
+    for key in [
+        "mask_iou",
+        "normal_mean_degrees",
+        "sigma_error",
+        "penetration_rate",
+        "mpjpe_mm",
+    ] {
+        assert!(last.extra["joint"][key].is_number(), "{key}");
+    }
+    assert!(last.extra["priors_only"]["psnr"].is_number());
+    let scene = read_ply(&run_dir.join("scene.ply"), &Device::flex()).unwrap();
+    let prior = read_ply(&run_dir.join("scene_prior.ply"), &Device::flex()).unwrap();
+    assert_eq!(
+        scene.len(),
+        prior.len(),
+        "stage D keeps the scene's Gaussians"
+    );
+    let posed = read_ply(&run_dir.join("posed_frame_0000.ply"), &Device::flex()).unwrap();
+    let avatar = read_ply(&run_dir.join("avatar_canonical.ply"), &Device::flex()).unwrap();
+    assert_eq!(posed.len(), scene.len() + avatar.len());
+    assert_eq!(renders_decode(&run_dir.join("renders")), 2);
+    assert!(run_dir.join("eval.gif").exists());
+    // Stopped inside stages A, B and D and at D's first step, resumed in new processes: the
+    // same end.
+    for (name, stop) in [("a6", "6"), ("b", "14"), ("d0", "18"), ("d", "22")] {
+        let first = with(&["--name", name, "--stop-after", stop]);
+        let stopped = run(dir.path(), "train-prior4d", &strs(&first));
+        assert_eq!(stopped.status.code(), Some(130), "{}", text(&stopped));
+        let partial = dir
+            .path()
+            .join(format!("runs/prior4d/{name}/checkpoint.safetensors"));
+        let resumed_name = format!("{name}_resumed");
+        let second = with(&[
+            "--name",
+            &resumed_name,
+            "--resume",
+            partial.to_str().unwrap(),
+        ]);
+        let resumed = run(dir.path(), "train-prior4d", &strs(&second));
+        assert!(resumed.status.success(), "{}", text(&resumed));
+        same_tensors(
+            &saved,
+            &dir.path().join(format!(
+                "runs/prior4d/{resumed_name}/checkpoint.safetensors"
+            )),
+        );
+    }
 }
 
 fn strs(v: &[String]) -> Vec<&str> {

@@ -471,7 +471,7 @@ impl ApfDataConfig {
                 .collect();
             back_project(&view.camera, &outside, &srgb, 1, &mut points);
         }
-        let mut points = thin(points, self.background_points, self.seed);
+        let mut points = points.thinned(self.background_points, self.seed ^ 0xB6_0000);
         points.sigmas = nearest_neighbour_scales(&points.positions, 3);
         points
     }
@@ -495,20 +495,4 @@ fn accessory_iou(views: &[ApfView], train: &[usize]) -> Option<f64> {
         })
         .collect();
     (!ious.is_empty()).then(|| ious.iter().sum::<f64>() / ious.len() as f64)
-}
-
-/// At most `keep` points, chosen evenly by a seeded shuffle.
-fn thin(points: InitPoints, keep: usize, seed: u64) -> InitPoints {
-    if points.len() <= keep {
-        return points;
-    }
-    let mut order: Vec<usize> = (0..points.len()).collect();
-    splatzoo_datasets::synth::rng::Rng(seed ^ 0xB6_0000).shuffle(&mut order);
-    order.truncate(keep);
-    order.sort_unstable();
-    InitPoints {
-        positions: order.iter().map(|&i| points.positions[i]).collect(),
-        colours: order.iter().map(|&i| points.colours[i]).collect(),
-        sigmas: order.iter().map(|&i| points.sigmas[i]).collect(),
-    }
 }

@@ -45,9 +45,11 @@ impl Default for SceneStageConfig {
             depth_end: 0.01,
             holdout_every: 8,
             rates: LearningRates::default(),
+            // Capped: stage D renders the scene three times a step.
             densify: DensifyConfig {
                 start: 300,
                 stop: 1200,
+                max_gaussians: 60_000,
                 ..DensifyConfig::default()
             },
         }
@@ -161,9 +163,13 @@ pub struct JointConfig {
     pub camera_refinement: bool,
     /// Optimise every scene parameter (the "all scene params" ablation) instead of SH only.
     pub free_scene: bool,
-    /// σ₀ from the plane (§4.2); otherwise `initial_sigma`.
+    /// σ₀ from the plane (§4.2); otherwise `initial_sigma`. Either is multiplied by
+    /// `sigma_scale` (the σ-recovery ablations start it off by a known factor).
     pub sigma_from_plane: bool,
     pub initial_sigma: f64,
+    pub sigma_scale: f64,
+    /// Stage D's own seed (frame order, random backgrounds), so arms share stages A and B.
+    pub seed: u64,
     pub rates: JointRates,
     /// Evaluate every this many synchronised frames.
     pub eval_stride: usize,
@@ -187,6 +193,8 @@ impl Default for JointConfig {
             free_scene: false,
             sigma_from_plane: true,
             initial_sigma: 1.0,
+            sigma_scale: 1.0,
+            seed: 0,
             rates: JointRates::default(),
             eval_stride: 5,
         }
@@ -215,7 +223,7 @@ impl Default for Prior4dConfig {
     fn default() -> Self {
         Self {
             backend: Backend::Flex,
-            iterations: 3500,
+            iterations: 3100,
             eval_every: 0,
             checkpoint_every: 500,
             lpips_weights: None,
@@ -284,8 +292,13 @@ impl MethodConfig for Prior4dConfig {
                 return bad(format!("{name} must be finite and ≥ 0, got {v}"));
             }
         }
-        if !(j.initial_sigma.is_finite() && j.initial_sigma > 0.0) {
-            return bad(format!("joint.initial_sigma > 0, got {}", j.initial_sigma));
+        for (name, v) in [
+            ("joint.initial_sigma", j.initial_sigma),
+            ("joint.sigma_scale", j.sigma_scale),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!("{name} must be finite and > 0, got {v}"));
+            }
         }
         if j.eval_stride == 0 {
             return bad("joint.eval_stride ≥ 1".into());

@@ -1,11 +1,12 @@
 //! Stage D's scores (§5.1.2 of Prior-4D and the spec's additions), at the synchronised
 //! evaluation camera, which no stage trains on: PSNR, SSIM (and 1 − SSIM, the paper's
 //! "D-SSIM"), LPIPS where weights are given; the avatar's normal angle error (mean, median)
-//! against the true normals inside the true person mask where the avatar covers it; the mask
+//! against the true normals over the true person mask (a pixel the avatar leaves uncovered,
+//! rendered normal shorter than 0.1, counts 90°); the mask
 //! IoU of the rendered avatar (alpha > 0.5) against the true mask. The avatar is placed by the
 //! (refined) acting camera of the same frame. On the acting frames: |σ/σ* − 1|, the foot
-//! penetration rate against the true floor (lowest foot vertex more than Δ_c below it) and the
-//! mean height of the 25 lowest foot vertices, the acting cameras' error (centre RMS in metres,
+//! penetration rate against the true floor (lowest foot vertex more than Δ_c below it), the
+//! mean absolute and the mean signed height of the 25 lowest foot vertices, the acting cameras' error (centre RMS in metres,
 //! mean rotation in degrees) and the joint error of the refined body track (camera frame, mm).
 
 use crate::avatar::posed_avatar;
@@ -36,6 +37,8 @@ pub struct JointScores {
     pub sigma_star: f64,
     pub sigma_error: f64,
     pub penetration_rate: f64,
+    /// Mean |height| and mean signed height of the 25 lowest foot vertices, mm.
+    pub foot_distance_mm: f64,
     pub foot_height_mm: f64,
     pub camera_centre_rms_mm: f64,
     pub camera_rotation_degrees: f64,
@@ -105,10 +108,11 @@ impl JointStage {
                 let truth = eval.mask.data[k];
                 inter += usize::from(ours && truth);
                 union += usize::from(ours || truth);
-                if ours && truth {
+                if truth {
                     let n = [0, 1, 2].map(|c| f64::from(normal[3 * k + c]));
+                    let covered = n.iter().map(|v| v * v).sum::<f64>() >= 0.01;
                     let m = eval.normals[k].map(f64::from);
-                    angles.push(angle_degrees(n, m));
+                    angles.push(if covered { angle_degrees(n, m) } else { 90.0 });
                 }
             }
             iou += if union == 0 {
@@ -119,14 +123,19 @@ impl JointStage {
         }
         let n = frames.len().max(1) as f64;
         angles.sort_by(f64::total_cmp);
-        let mean_angle = angles.iter().sum::<f64>() / angles.len().max(1) as f64;
+        // No person in any evaluated frame: nothing to score, reported as the worst case.
+        let mean_angle = if angles.is_empty() {
+            90.0
+        } else {
+            angles.iter().sum::<f64>() / angles.len() as f64
+        };
         let median_angle = angles.get(angles.len() / 2).copied().unwrap_or(90.0);
 
         // Feet against the true floor (y = 0 in scene units) and the cameras against the truth.
         let scale = capture.scale;
         let margin = 0.02 * scale;
-        let (mut penetrating, mut heights, mut centre_sq, mut rotation_err) =
-            (0usize, 0.0, 0.0, 0.0);
+        let (mut penetrating, mut heights, mut distances) = (0usize, 0.0, 0.0);
+        let (mut centre_sq, mut rotation_err) = (0.0, 0.0);
         for t in 0..capture.acting.len() {
             let view = self.acting_view(capture, t, refine, None);
             let posed = posed_avatar(&self.avatar, t, &capture.acting[t].camera, &self.faces);
@@ -138,7 +147,9 @@ impl JointStage {
                 penetrating += 1;
             }
             let lowest = &feet[..feet.len().min(25)];
-            heights += lowest.iter().sum::<f64>() / lowest.len().max(1) as f64;
+            let count = lowest.len().max(1) as f64;
+            heights += lowest.iter().sum::<f64>() / count;
+            distances += lowest.iter().map(|h| h.abs()).sum::<f64>() / count;
             let (r_true, c_true) = camera_to_world(&capture.acting[t].true_camera);
             let r = rows3(&view.rotation);
             let c = host_f32(&view.centre);
@@ -170,6 +181,7 @@ impl JointStage {
             sigma_star,
             sigma_error: (sigma / sigma_star - 1.0).abs(),
             penetration_rate: penetrating as f64 / f,
+            foot_distance_mm: distances / f / scale * 1000.0,
             foot_height_mm: heights / f / scale * 1000.0,
             camera_centre_rms_mm: (centre_sq / f).sqrt() / scale * 1000.0,
             camera_rotation_degrees: rotation_err / f,

@@ -6,6 +6,8 @@
 
 use crate::error::Prior4dError;
 use crate::method::Prior4d;
+use crate::offsets::PoseOffsetNet;
+use burn::module::Module;
 use splatzoo_datasets::DatasetError;
 use splatzoo_train::TrainError;
 use splatzoo_train::gaussians::GaussianSet;
@@ -71,7 +73,29 @@ pub fn write_outputs(
         frames.len()
     ));
 
+    // The offset network as ONNX, its vectors the avatar's first rows at frames 0 and 1.
+    let canonical = joint.avatar.canonical_set().splats();
+    let rows = crate::onnx::ROWS.min(canonical.len());
+    let first_rows = canonical.means.clone().slice([0..rows, 0..3]);
+    let net = joint.offsets.valid();
+    let levels = method.config.joint.offset_network.position_levels;
+    let samples: Vec<_> = (0..capture.acting.len().min(2))
+        .map(|t| {
+            let pose = joint.avatar.poses.frame(t, false).rotations;
+            PoseOffsetNet::inputs(first_rows.clone(), pose, levels)
+        })
+        .collect();
+    let exported = crate::onnx::export(&net, &samples, &run.join("onnx"))?;
+    say.say(&format!(
+        "wrote onnx/pose_offsets.onnx ({rows} rows per run; tract matches Burn to {:.1e})",
+        exported.relative_error
+    ));
+
     let mut summary = serde_json::Map::new();
+    summary.insert(
+        "onnx_relative_error".into(),
+        f64::from(exported.relative_error).into(),
+    );
     let plane = &joint.init.fit.plane;
     summary.insert(
         "initialisation".into(),

@@ -168,8 +168,10 @@ impl JointStage {
             sigma_from_plane(&fit.plane, capture, &per_frame, j.contact_rule.count)?
         } else {
             j.initial_sigma
-        };
+        } * j.sigma_scale;
         let frames = capture.acting.len();
+        // Its own seed, so the network does not depend on what drew from the device before.
+        device.seed(config.seed ^ 0xD0D0_0004 ^ j.seed);
         let offsets = PoseOffsetNet::new(&j.offset_network, model.joint_count(), device).train();
         let log_sigma = Tensor::<1>::from_floats([sigma0.ln() as f32], device);
         let zeros = Tensor::<2>::zeros([frames, 3], device);
@@ -189,14 +191,14 @@ impl JointStage {
                 candidates,
                 sigma0,
             },
-            order: EpochOrder::new(config.seed ^ 0xD0D0_0003),
+            order: EpochOrder::new(config.seed ^ 0xD0D0_0003 ^ j.seed.wrapping_mul(0x9E37_79B9)),
             extent: scene_extent,
             sh_degree,
             prior_colours,
             prior_log_radii,
             feet,
             faces: model.faces.clone(),
-            seed: config.seed,
+            seed: config.seed ^ j.seed.wrapping_mul(0x85EB_CA6B),
         };
         stage.attach_offsets(config);
         Ok(stage)

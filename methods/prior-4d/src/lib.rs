@@ -39,6 +39,7 @@ pub mod locate;
 pub mod loss;
 mod method;
 pub mod offsets;
+pub mod onnx;
 pub mod plane;
 pub mod render;
 pub mod scene_stage;

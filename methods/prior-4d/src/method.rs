@@ -14,7 +14,6 @@ use crate::joint::{AVATAR, JOINT_SCENE, JointStage};
 use crate::scene_stage::{SCENE, SceneStage};
 use burn::module::Module;
 use burn::tensor::Device;
-use splatzoo_datasets::synth::scene::standing_height;
 use splatzoo_models::body::BodyModel;
 use splatzoo_models::networks::weights::{WeightFile, load_module, module_tensors};
 use splatzoo_train::TrainError;
@@ -117,16 +116,29 @@ impl Prior4d {
         })
     }
 
-    /// The true global scale for the avatar's body: the scene scale × true / fitted standing
-    /// height.
+    /// The true global scale for this avatar: the scene scale × the true body's height / the
+    /// avatar's, both measured as the vertical extent in the avatar's canonical pose (the
+    /// avatar's surface is its canonical Gaussians — its shape coefficients move the skeleton,
+    /// not the surface — so its height is measured on them).
     pub fn sigma_star(&self) -> f64 {
-        let device = self.avatar.node.betas().device();
-        let fitted: Vec<f64> = host_f32(self.avatar.node.betas())
-            .into_iter()
-            .map(f64::from)
-            .collect();
-        let truth = standing_height(&self.capture.true_betas, &device);
-        self.capture.scale * truth / standing_height(&fitted, &device)
+        let set = match &self.joint {
+            Some(joint) => joint.avatar.canonical_set(),
+            None => self.avatar.node.canonical_set(),
+        };
+        let extent = |ys: &mut dyn Iterator<Item = f64>| {
+            let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
+                (lo.min(y), hi.max(y))
+            });
+            hi - lo
+        };
+        let avatar = extent(&mut host_f32(&set.means).chunks(3).map(|p| f64::from(p[1])));
+        let truth = true_canonical_vertices(
+            &self.capture.true_betas,
+            self.config.avatar.node.canonical_pose,
+            &set.means.device(),
+        );
+        let truth = extent(&mut truth.chunks(3).map(|p| f64::from(p[1])));
+        self.capture.scale * truth / avatar
     }
 
     /// Stage C and a fresh stage D from the current scene and scan avatar.
@@ -157,6 +169,15 @@ impl Prior4d {
             self.sigma_star(),
             lpips,
         )
+    }
+
+    /// Stage D's scores now.
+    pub fn final_scores(&self, lpips: Option<&Lpips>) -> Result<JointScores, Prior4dError> {
+        let joint = self
+            .joint
+            .as_ref()
+            .ok_or_else(|| Prior4dError::input("train-prior4d", "stage D has not started"))?;
+        self.joint_scores(joint, lpips)
     }
 
     fn train_step(&mut self) -> Result<StepReport, Prior4dError> {
@@ -203,6 +224,30 @@ impl Prior4d {
             (None, _) => &self.avatar.order,
         }
     }
+}
+
+/// The built-in body's vertices (flat `[V · 3]`) at shape `betas` in `pose`.
+fn true_canonical_vertices(
+    betas: &[f64],
+    pose: splatzoo_train::scene::skinned::CanonicalPose,
+    device: &Device,
+) -> Vec<f32> {
+    use burn::tensor::{Tensor, TensorData};
+    use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose as lbs};
+    let model = &splatzoo_models::body::builtin_body().model;
+    let s = betas.len().min(model.shape_count());
+    let j = model.joint_count();
+    let betas: Vec<f32> = betas[..s].iter().map(|&b| b as f32).collect();
+    let axis_angles: Vec<f32> = pose.axis_angles(j).iter().map(|&v| v as f32).collect();
+    let posed = lbs(
+        &BodyTensors::new(model, device),
+        &PoseInput::from_axis_angle(
+            Tensor::from_data(TensorData::new(betas, [1, s]), device),
+            Tensor::from_data(TensorData::new(axis_angles, [1, 3 * j]), device),
+            Tensor::zeros([1, 3], device),
+        ),
+    );
+    host_f32(&posed.vertices)
 }
 
 fn load_offsets(joint: &mut JointStage, checkpoint: &Checkpoint) -> Result<(), TrainError> {

@@ -63,14 +63,10 @@ impl PoseOffsetNet {
         }
     }
 
-    /// Canonical centres `[G, 3]` and the frame's local joint rotations `[1, J, 3, 3]` →
-    /// centre offsets `[G, 3]` and log-radius offsets `[G, 1]`.
-    pub fn forward(
-        &self,
-        canonical: Tensor<2>,
-        rotations: Tensor<4>,
-        levels: usize,
-    ) -> (Tensor<2>, Tensor<2>) {
+    /// The network's input rows `[G, 3 (1 + 2 L) + 6 (J − 1)]`: each canonical centre's code
+    /// `γ(x̄)` (`[G, 3]` in) beside the frame's pose code from local joint rotations
+    /// `[1, J, 3, 3]` (both detached: the network conditions on them, it does not move them).
+    pub fn inputs(canonical: Tensor<2>, rotations: Tensor<4>, levels: usize) -> Tensor<2> {
         let [g, _] = canonical.dims();
         let [_, j, _, _] = rotations.dims();
         let pose =
@@ -82,11 +78,33 @@ impl PoseOffsetNet {
             .reshape([1, pose_width(j)])
             .expand([g, pose_width(j)]);
         let code = frequency_encoding(canonical.detach(), levels);
-        let hidden = self.trunk.forward(Tensor::cat(vec![code, pose], 1));
-        (
-            self.offset_head.forward(hidden.clone()),
-            self.scale_head.forward(hidden),
+        Tensor::cat(vec![code, pose], 1)
+    }
+
+    /// Input rows → `[G, 4]`: centre offsets (3) then the log-radius offset (1). This is the
+    /// graph the ONNX export writes.
+    pub fn forward_inputs(&self, inputs: Tensor<2>) -> Tensor<2> {
+        let hidden = self.trunk.forward(inputs);
+        Tensor::cat(
+            vec![
+                self.offset_head.forward(hidden.clone()),
+                self.scale_head.forward(hidden),
+            ],
+            1,
         )
+    }
+
+    /// Canonical centres `[G, 3]` and the frame's local joint rotations `[1, J, 3, 3]` →
+    /// centre offsets `[G, 3]` and log-radius offsets `[G, 1]`.
+    pub fn forward(
+        &self,
+        canonical: Tensor<2>,
+        rotations: Tensor<4>,
+        levels: usize,
+    ) -> (Tensor<2>, Tensor<2>) {
+        let g = canonical.dims()[0];
+        let out = self.forward_inputs(Self::inputs(canonical, rotations, levels));
+        (out.clone().slice([0..g, 0..3]), out.slice([0..g, 3..4]))
     }
 }
 

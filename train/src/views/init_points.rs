@@ -30,6 +30,22 @@ impl InitPoints {
         self.positions.is_empty()
     }
 
+    /// At most `keep` of the points, a random subset drawn from `seed` (kept in their order).
+    pub fn thinned(self, keep: usize, seed: u64) -> Self {
+        if self.len() <= keep {
+            return self;
+        }
+        let mut order: Vec<usize> = (0..self.len()).collect();
+        splatzoo_datasets::synth::rng::Rng(seed).shuffle(&mut order);
+        order.truncate(keep);
+        order.sort_unstable();
+        Self {
+            positions: order.iter().map(|&i| self.positions[i]).collect(),
+            colours: order.iter().map(|&i| self.colours[i]).collect(),
+            sigmas: order.iter().map(|&i| self.sigmas[i]).collect(),
+        }
+    }
+
     /// Sparse points, each with 3DGS's scale: `sqrt(mean d²)` over its three nearest neighbours
     /// (`distCUDA2`), floored at 1e-7 of the cloud's diagonal so duplicates stay finite.
     pub fn from_sparse(points: &[SparsePoint]) -> Self {

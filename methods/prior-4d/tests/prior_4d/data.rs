@@ -1,12 +1,14 @@
 //! The synthetic Prior-4D capture: three videos and an evaluation camera with what the claims
-//! need — floor pixels in the scene scan, the person in every acting frame, a camera-space body
-//! prior that lands on the person, given normals facing the camera, the scale gap.
+//! need — floor pixels in the scene scan, the person in every acting frame, given normals facing
+//! the camera; camera-space body tracks that pose the same body; scene units.
 
-use crate::values;
+use crate::{Rng, fresh_seed, values};
 use burn::tensor::Device;
+use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_models::body::builtin_body;
-use splatzoo_prior_4d::data::{Prior4dCapture, Prior4dDataConfig};
-use splatzoo_train::avatar::{project, track_joints};
+use splatzoo_prior_4d::data::{Prior4dCapture, Prior4dDataConfig, scaled_camera, to_camera_space};
+use splatzoo_rasterizer::Camera;
+use splatzoo_train::avatar::track_joints;
 
 pub fn tiny_capture() -> Prior4dCapture {
     Prior4dDataConfig {
@@ -54,43 +56,56 @@ fn the_capture_has_what_the_claims_need() {
             "frame {t}: {facing} of {on} face the camera"
         );
     }
-    // The camera-space truth lands on the person: its pelvis projects inside the mask's box.
-    let joints = values(track_joints(
-        &builtin_body().model,
-        &capture.acting_truth,
-        &Device::flex(),
+}
+
+/// A world body track in each frame's camera frame poses, by LBS, exactly the world body seen
+/// from that camera (the root turns about the rest pelvis, so its translation must move too).
+#[test]
+fn camera_space_tracks_pose_the_same_body() {
+    let seed = fresh_seed();
+    let mut rng = Rng(seed);
+    let model = &builtin_body().model;
+    let frames = 4;
+    let track = PoseSequence {
+        joints: 24,
+        poses: (0..frames * 72).map(|_| rng.range(-0.6, 0.6)).collect(),
+        translations: (0..frames * 3).map(|_| rng.range(-1.0, 1.0)).collect(),
+        betas: (0..frames * 4).map(|_| rng.range(-1.5, 1.5)).collect(),
+        shape_count: 4,
+        fps: None,
+    };
+    let cameras: Vec<Camera> = (0..frames)
+        .map(|_| {
+            let position = [0.0; 3].map(|_| rng.range(-4.0, 4.0) as f32);
+            let target = [0.0; 3].map(|_| rng.range(-0.5, 0.5) as f32);
+            Camera::look_at(position, target, [0.0, 1.0, 0.0], 60.0, 64, 48)
+        })
+        .collect();
+    let device = Device::flex();
+    let world = values(track_joints(model, &track, &device));
+    let local = values(track_joints(
+        model,
+        &to_camera_space(&track, &cameras, model),
+        &device,
     ));
-    for (t, frame) in capture.acting.iter().enumerate() {
-        let pelvis = [joints[t * 72], joints[t * 72 + 1], joints[t * 72 + 2]];
-        let mut camera = frame.true_camera;
-        camera.world_to_camera = [
-            [1.0, 0.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0, 0.0],
-            [0.0, 0.0, 1.0, 0.0],
-        ];
-        let (u, v, z) = project(&camera, &[pelvis])[0];
-        let mask = values(frame.mask.clone());
-        let inside: Vec<(usize, usize)> = (0..mask.len())
-            .filter(|&p| mask[p] > 0.5)
-            .map(|p| (p % 80, p / 80))
-            .collect();
-        let (x0, x1) = (
-            inside.iter().map(|p| p.0).min().unwrap(),
-            inside.iter().map(|p| p.0).max().unwrap(),
-        );
-        let (y0, y1) = (
-            inside.iter().map(|p| p.1).min().unwrap(),
-            inside.iter().map(|p| p.1).max().unwrap(),
-        );
-        assert!(z > 0.0, "frame {t}: pelvis behind the camera");
-        assert!(
-            u >= x0 as f32 - 2.0
-                && u <= x1 as f32 + 3.0
-                && v >= y0 as f32 - 2.0
-                && v <= y1 as f32 + 3.0,
-            "frame {t}: pelvis at ({u:.1}, {v:.1}) outside the person's box {x0}..{x1} × {y0}..{y1}"
-        );
+    for (t, camera) in cameras.iter().enumerate() {
+        let m = camera.world_to_camera;
+        for j in 0..24 {
+            let p = &world[(t * 24 + j) * 3..(t * 24 + j) * 3 + 3];
+            let want: [f32; 3] =
+                std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
+            let got = &local[(t * 24 + j) * 3..(t * 24 + j) * 3 + 3];
+            for c in 0..3 {
+                assert!(
+                    (got[c] - want[c]).abs() < 1e-4,
+                    "seed {seed}: frame {t} joint {j}: {got:?} vs {want:?}"
+                );
+            }
+        }
     }
-    // The scale gap: scene-unit camera centres are metre centres / scale.
-    assert_eq!(capture.scale, 0.7);
+    // Scene units: a camera's centre scales with the scene.
+    let scaled = scaled_camera(&cameras[0], 0.7);
+    for c in 0..3 {
+        assert!((scaled.position()[c] - 0.7 * cameras[0].position()[c]).abs() < 1e-5);
+    }
 }

@@ -3,6 +3,7 @@
 //! rendered normals against analytic ones, and the pose-dependent offsets' place in Eq. 2.
 
 mod data;
+mod extremes;
 mod geometry;
 mod objective;
 mod offsets;
