@@ -9,6 +9,7 @@
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::rotation::{axis_angle_to_matrix, matrix_to_quaternion};
 use splatzoo_rasterizer::{Camera, Splats};
+use splatzoo_train::scene::skinned::skinning::quaternion_product;
 
 /// A camera-to-world rigid transform: `x_world = R x_local + c`.
 #[derive(Debug, Clone)]
@@ -99,49 +100,27 @@ pub fn camera_at_origin(camera: &Camera) -> Camera {
     }
 }
 
-/// Hamilton product `a ⊗ b` of quaternions `[N, 4]` (w, x, y, z); `a` may be `[1, 4]`.
-pub fn quaternion_product(a: Tensor<2>, b: Tensor<2>) -> Tensor<2> {
-    let n = b.dims()[0];
-    let a = a.expand([n, 4]);
-    let c = |t: &Tensor<2>, k: usize| t.clone().slice([0..n, k..k + 1]);
-    let (aw, ax, ay, az) = (c(&a, 0), c(&a, 1), c(&a, 2), c(&a, 3));
-    let (bw, bx, by, bz) = (c(&b, 0), c(&b, 1), c(&b, 2), c(&b, 3));
-    Tensor::cat(
-        vec![
-            aw.clone() * bw.clone()
-                - ax.clone() * bx.clone()
-                - ay.clone() * by.clone()
-                - az.clone() * bz.clone(),
-            aw.clone() * bx.clone() + ax.clone() * bw.clone() + ay.clone() * bz.clone()
-                - az.clone() * by.clone(),
-            aw.clone() * by.clone() - ax.clone() * bz.clone()
-                + ay.clone() * bw.clone()
-                + az.clone() * bx.clone(),
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        1,
-    )
-}
-
 /// Splats carried from the world into `frame` (centres and rotations; scales, opacity and
 /// colours unchanged). Rotations must be non-zero quaternions: the rasterizer reads a zero
 /// quaternion as the identity in whatever frame it is rendered, which no rotation can move.
 pub fn splats_in_frame(splats: &Splats, frame: &RigidFrame) -> Splats {
+    let n = splats.len();
     // The conjugate of the local → world quaternion is world → local.
     let conjugate = Tensor::<2>::from_floats([[1.0, -1.0, -1.0, -1.0]], &splats.means.device());
     let to_local = frame.quaternion() * conjugate;
     Splats {
         means: frame.to_local(splats.means.clone()),
-        quats: quaternion_product(to_local, splats.quats.clone()),
+        quats: quaternion_product(to_local.expand([n, 4]), splats.quats.clone()),
         ..splats.clone()
     }
 }
 
 /// Splats carried from `frame` into the world.
 pub fn splats_to_world(splats: &Splats, frame: &RigidFrame) -> Splats {
+    let n = splats.len();
     Splats {
         means: frame.to_world(splats.means.clone()),
-        quats: quaternion_product(frame.quaternion(), splats.quats.clone()),
+        quats: quaternion_product(frame.quaternion().expand([n, 4]), splats.quats.clone()),
         ..splats.clone()
     }
 }

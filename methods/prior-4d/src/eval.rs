@@ -69,6 +69,28 @@ fn rows3(t: &Tensor<2>) -> Vec<[f64; 3]> {
 }
 
 impl JointStage {
+    /// Scene (`scene`, its splats now) and avatar at synchronised frame `t` seen from the
+    /// evaluation camera, the avatar placed by acting camera `t` (refined when `refine`).
+    pub fn render_eval(
+        &self,
+        capture: &Prior4dCapture,
+        scene: &splatzoo_rasterizer::Splats,
+        t: usize,
+        refine: bool,
+    ) -> Result<crate::render::Layers, Prior4dError> {
+        let eval = &capture.eval[t];
+        let acting = self.acting_view(capture, t, refine, None);
+        let avatar = self.placed_avatar(capture, t, &acting, self.log_sigma.clone());
+        let view = RigidFrame::of_camera(&eval.camera, &self.log_sigma.device());
+        self.layers(
+            Some(scene),
+            Some(&avatar),
+            &view,
+            &eval.camera,
+            capture.scene_background,
+        )
+    }
+
     /// Scores now; `sigma_star` is the true global scale for this avatar's body.
     pub fn evaluate(
         &self,
@@ -84,16 +106,7 @@ impl JointStage {
         let mut angles = Vec::new();
         for &t in &frames {
             let eval = &capture.eval[t];
-            let acting = self.acting_view(capture, t, refine, None);
-            let avatar = self.placed_avatar(capture, t, &acting, self.log_sigma.clone());
-            let view = RigidFrame::of_camera(&eval.camera, &self.log_sigma.device());
-            let layers = self.layers(
-                Some(&scene),
-                Some(&avatar),
-                &view,
-                &eval.camera,
-                capture.scene_background,
-            )?;
+            let layers = self.render_eval(capture, &scene, t, refine)?;
             let image = layers.color.clamp(0.0, 1.0);
             p += psnr(image.clone(), eval.image.clone());
             s += scalar(ssim(image.clone(), eval.image.clone()));

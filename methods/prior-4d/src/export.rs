@@ -51,16 +51,7 @@ pub fn write_outputs(
     let mut frames = Vec::new();
     for t in (0..capture.eval.len()).step_by(method.config.joint.eval_stride.max(1)) {
         let eval = &capture.eval[t];
-        let acting = joint.acting_view(capture, t, refine, None);
-        let avatar = joint.placed_avatar(capture, t, &acting, joint.log_sigma.clone());
-        let view = crate::camera::RigidFrame::of_camera(&eval.camera, &joint.log_sigma.device());
-        let layers = joint.layers(
-            Some(&scene),
-            Some(&avatar),
-            &view,
-            &eval.camera,
-            capture.scene_background,
-        )?;
+        let layers = joint.render_eval(capture, &scene, t, refine)?;
         let image = srgb_image(&layers.color.clamp(0.0, 1.0));
         let pair = side_by_side(&[image.clone(), srgb_image(&eval.image)]);
         write_png(&renders.join(format!("eval_{t:04}.png")), &pair)?;

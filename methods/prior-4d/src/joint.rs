@@ -200,7 +200,7 @@ impl JointStage {
             faces: model.faces.clone(),
             seed: config.seed ^ j.seed.wrapping_mul(0x85EB_CA6B),
         };
-        stage.attach_offsets(config);
+        stage.attach_offsets(config, false);
         Ok(stage)
     }
 
@@ -212,11 +212,17 @@ impl JointStage {
         f64::from(host_f32(&self.log_sigma)[0]).exp()
     }
 
-    /// Hands the offset network's current parameters to the avatar node.
-    pub fn attach_offsets(&mut self, config: &Prior4dConfig) {
+    /// Hands the offset network's current parameters to the avatar node: the autodiff ones for
+    /// a training step, plain ones otherwise (a forward pass on autodiff parameters that no
+    /// backward pass consumes would keep its graph alive).
+    pub fn attach_offsets(&mut self, config: &Prior4dConfig, training: bool) {
         let field = config.joint.pose_offsets.then(|| {
             Box::new(PoseOffsets {
-                net: self.offsets.clone(),
+                net: if training {
+                    self.offsets.clone()
+                } else {
+                    self.offsets.valid()
+                },
                 levels: config.joint.offset_network.position_levels,
             }) as Box<dyn splatzoo_train::scene::skinned::NonRigidField>
         });
@@ -300,6 +306,7 @@ impl JointStage {
         let j = &config.joint;
         let t = self.order.next(capture.acting.len());
         let frame = &capture.acting[t];
+        self.attach_offsets(config, true);
         self.scene.begin_step();
         self.avatar.begin_step();
         let device = self.log_sigma.device().autodiff();
@@ -435,8 +442,8 @@ impl JointStage {
             self.offsets = self
                 .offsets_adam
                 .step(self.offsets.clone(), &grads, rates.offsets);
-            self.attach_offsets(config);
         }
+        self.attach_offsets(config, false);
         Ok(terms)
     }
 }

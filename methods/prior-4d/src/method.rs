@@ -321,7 +321,7 @@ impl Method for Prior4d {
                 joint.scene.load(checkpoint, JOINT_SCENE, device)?;
                 joint.avatar.load(checkpoint, AVATAR, device)?;
                 load_offsets(&mut joint, checkpoint)?;
-                joint.attach_offsets(&method.config);
+                joint.attach_offsets(&method.config, false);
                 let frames = method.capture.acting.len();
                 joint.log_sigma = checkpoint.tensor("sigma.log", [Some(1)], device)?;
                 joint.sigma_adam = splatzoo_train::adam::AdamState::load(

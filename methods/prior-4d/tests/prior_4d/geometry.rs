@@ -5,6 +5,7 @@
 use crate::{Rng, fresh_seed, values};
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::normals::vertex_normals;
+use splatzoo_models::rotation_scalar::axis_angle_matrix as rodrigues;
 use splatzoo_prior_4d::camera::{RigidFrame, camera_at_origin, camera_to_world, splats_in_frame};
 use splatzoo_prior_4d::locate::{place, solid_spheres};
 use splatzoo_prior_4d::loss::normal_loss;
@@ -17,29 +18,6 @@ fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
         .zip(b)
         .map(|(x, y)| (x - y).abs())
         .fold(0.0, f32::max)
-}
-
-/// Rodrigues in f64.
-fn rodrigues(w: [f64; 3]) -> [[f64; 3]; 3] {
-    let t = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-    if t == 0.0 {
-        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    }
-    let k = w.map(|v| v / t);
-    let (s, c) = t.sin_cos();
-    let mut r = [[0.0; 3]; 3];
-    for (i, row) in r.iter_mut().enumerate() {
-        for (j, v) in row.iter_mut().enumerate() {
-            *v = (1.0 - c) * k[i] * k[j] + if i == j { c } else { 0.0 };
-        }
-    }
-    r[0][1] -= s * k[2];
-    r[0][2] += s * k[1];
-    r[1][0] += s * k[2];
-    r[1][2] -= s * k[0];
-    r[2][0] -= s * k[1];
-    r[2][1] += s * k[0];
-    r
 }
 
 fn matmul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
