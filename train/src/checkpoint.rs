@@ -4,7 +4,9 @@
 //! Values are stored bit for bit, which is what lets `--resume` continue exactly.
 
 use burn::tensor::{Device, Tensor, TensorData};
-use splatzoo_models::networks::weights::{decode, encode};
+use splatzoo_models::networks::weights::{
+    WeightFile, WeightsError, decode, encode, load_module, module_tensors,
+};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -30,6 +32,34 @@ pub struct Checkpoint {
 }
 
 impl Checkpoint {
+    /// Stores every parameter of `module` as `<prefix>.<parameter path>`.
+    pub fn put_module<M: burn::module::Module>(&mut self, prefix: &str, module: &M) {
+        for (k, v) in module_tensors(module) {
+            self.tensors.insert(format!("{prefix}.{k}"), v);
+        }
+    }
+
+    /// `fresh` with the parameters [`Self::put_module`] stored under `prefix` (entries under
+    /// `<prefix>.optimizer.` — a [`crate::module_adam::ModuleAdam`]'s moments — are not
+    /// parameters and are skipped).
+    pub fn module<M: burn::module::Module>(
+        &self,
+        fresh: M,
+        prefix: &str,
+    ) -> Result<M, WeightsError> {
+        let prefix = format!("{prefix}.");
+        let tensors = self
+            .tensors
+            .iter()
+            .filter_map(|(k, v)| {
+                k.strip_prefix(&prefix)
+                    .filter(|rest| !rest.starts_with("optimizer."))
+                    .map(|rest| (rest.to_owned(), v.clone()))
+            })
+            .collect();
+        load_module(fresh, &WeightFile::new(self.origin.clone(), tensors))
+    }
+
     pub fn put<const D: usize>(&mut self, name: &str, tensor: &Tensor<D>) {
         let values = crate::host_f32(tensor);
         self.tensors

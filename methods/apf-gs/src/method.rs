@@ -7,7 +7,6 @@ use crate::networks::ApfNetworks;
 use crate::trainer::{ApfArgs, ApfTrainer, NetworkOptimizers};
 use burn::module::Module;
 use burn::tensor::Device;
-use splatzoo_models::networks::weights::{WeightFile, load_module, module_tensors};
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::gaussians::GaussianSet;
@@ -26,18 +25,7 @@ fn load_networks(
     fresh: ApfNetworks,
     checkpoint: &Checkpoint,
 ) -> Result<(ApfNetworks, NetworkOptimizers), TrainError> {
-    let prefix = format!("{NETWORKS}.");
-    let tensors = checkpoint
-        .tensors
-        .iter()
-        .filter_map(|(k, v)| {
-            k.strip_prefix(&prefix)
-                .filter(|rest| !rest.starts_with("optimizer."))
-                .map(|rest| (rest.to_owned(), v.clone()))
-        })
-        .collect();
-    let file = WeightFile::new(checkpoint.origin.clone(), tensors);
-    let nets = load_module(fresh, &file)?.train();
+    let nets = checkpoint.module(fresh, NETWORKS)?.train();
     let under = |name: &str| format!("{NETWORKS}.optimizer.{name}");
     let optimizers = NetworkOptimizers {
         encoder: ModuleAdam::load_under(
@@ -178,9 +166,7 @@ impl Method for ApfTrainer {
         for node in self.scene.nodes() {
             node.save(&mut c, node.name());
         }
-        for (k, v) in module_tensors(&self.nets) {
-            c.tensors.insert(format!("{NETWORKS}.{k}"), v);
-        }
+        c.put_module(NETWORKS, &self.nets);
         let o = &self.optimizers;
         let n = &self.nets;
         let under = |name: &str| format!("{NETWORKS}.optimizer.{name}");

@@ -15,7 +15,6 @@ use crate::scene_stage::{SCENE, SceneStage};
 use burn::module::Module;
 use burn::tensor::Device;
 use splatzoo_models::body::BodyModel;
-use splatzoo_models::networks::weights::{WeightFile, load_module, module_tensors};
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::harness::{EpochOrder, Evaluation, Method, Say, Scores, StepReport};
@@ -251,18 +250,7 @@ fn true_canonical_vertices(
 }
 
 fn load_offsets(joint: &mut JointStage, checkpoint: &Checkpoint) -> Result<(), TrainError> {
-    let prefix = format!("{OFFSETS}.");
-    let tensors = checkpoint
-        .tensors
-        .iter()
-        .filter_map(|(k, v)| {
-            k.strip_prefix(&prefix)
-                .filter(|rest| !rest.starts_with("optimizer."))
-                .map(|rest| (rest.to_owned(), v.clone()))
-        })
-        .collect();
-    let file = WeightFile::new(checkpoint.origin.clone(), tensors);
-    joint.offsets = load_module(joint.offsets.clone(), &file)?.train();
+    joint.offsets = checkpoint.module(joint.offsets.clone(), OFFSETS)?.train();
     joint.offsets_adam = ModuleAdam::load_under(
         NETWORK_ADAM,
         &joint.offsets,
@@ -427,9 +415,7 @@ impl Method for Prior4d {
         if let Some(joint) = &self.joint {
             joint.scene.save(&mut c, JOINT_SCENE);
             joint.avatar.save(&mut c, AVATAR);
-            for (k, v) in module_tensors(&joint.offsets) {
-                c.tensors.insert(format!("{OFFSETS}.{k}"), v);
-            }
+            c.put_module(OFFSETS, &joint.offsets);
             joint
                 .offsets_adam
                 .save_under(&joint.offsets, &mut c, &format!("{OFFSETS}.optimizer"));
