@@ -7,14 +7,21 @@
 //!   6-D;
 //! - [`anchor`]: Gaussians anchored on mesh faces, face frames, subdivision, surface sampling;
 //! - [`normals`]: differentiable area-weighted vertex normals and their f64 reference;
-//! - [`networks`]: ResNet/FPN encoders and safetensors weight files;
+//! - [`raycast`]: a triangle BVH for shadow and visibility rays, beside a brute-force loop;
+//! - [`laplacian`]: the uniform mesh Laplacian and its smoothness energy;
+//! - [`knn`]: exact k-nearest-neighbour queries over a point cloud (a bucket grid);
+//! - [`networks`]: ResNet/FPN encoders, frequency and hash encodings, MLPs, safetensors weight
+//!   files;
 //! - [`pickle`] (Python pickles, joblib, numpy objects) and [`files`] (the one atomic writer).
 
 pub mod anchor;
 pub mod body;
 pub mod files;
+pub mod knn;
+pub mod laplacian;
 pub mod networks;
 pub mod normals;
 pub mod pickle;
+pub mod raycast;
 pub mod rotation;
 pub mod rotation_scalar;

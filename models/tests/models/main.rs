@@ -1,14 +1,17 @@
 //! The models crate's integration tests, one binary: mesh anchors, the built-in body, linear
-//! blend skinning, vertex normals, shared networks (ResNet, FPN, weight files), body-model files (npz, pkl),
-//! skeleton priors and rotations.
+//! blend skinning, vertex normals, shared networks (ResNet, FPN, hash encoding, weight files),
+//! body-model files (npz, pkl), skeleton priors, rotations and ray casting.
 
 mod anchor;
 mod builtin;
 mod common;
+mod hash_grid;
+mod knn;
 mod lbs;
 mod networks;
 mod normals;
 mod npz;
 mod pkl;
 mod priors;
+mod raycast;
 mod rotation;

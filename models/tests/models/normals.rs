@@ -1,5 +1,6 @@
 //! Vertex normals: the Burn ops against the f64 reference on fresh random meshes, analytic
-//! normals of a symmetric solid, gradients against finite differences, degenerate meshes.
+//! normals of a symmetric solid, gradients against finite differences, degenerate meshes; and
+//! the uniform mesh Laplacian, the other per-vertex mesh operator.
 
 use crate::common::values;
 use burn::tensor::{Device, Tensor, TensorData};
@@ -162,4 +163,75 @@ fn degenerate_meshes_give_zero_normals_and_finite_gradients() {
     assert!(g.iter().all(|v| v.is_finite()), "{g:?}");
     let reference = vertex_normals_reference(&vertices, &faces);
     assert!(reference.iter().flatten().all(|v| *v == 0.0));
+}
+
+/// The uniform Laplacian against its f64 reference on the jittered body; zero on an affine
+/// field's interior (a flat grid's inner vertices), its energy's gradient against finite
+/// differences, an isolated vertex contributing nothing.
+#[test]
+fn the_uniform_laplacian_matches_its_reference_and_its_energy_gradient() {
+    use splatzoo_models::laplacian::UniformLaplacian;
+    let s = seed();
+    let mut stream = Stream(s);
+    let (vertices, faces) = jittered_body(&mut stream);
+    let laplacian = UniformLaplacian::new(vertices.len(), &faces);
+    let device = Device::flex();
+    let got = values(laplacian.apply(tensor(&vertices, &device)));
+    let want = laplacian.apply_reference(&vertices);
+    for (g, w) in got.chunks(3).zip(&want) {
+        for k in 0..3 {
+            assert!(
+                (f64::from(g[k]) - w[k]).abs() < 1e-5,
+                "seed {s}: {g:?} vs {w:?}"
+            );
+        }
+    }
+    // A 4×4 planar grid (two triangles per square) plus one isolated vertex.
+    let mut grid: Vec<[f64; 3]> = (0..16)
+        .map(|i| [(i % 4) as f64, (i / 4) as f64, 0.5 * (i % 4) as f64])
+        .collect();
+    grid.push([9.0, 9.0, 9.0]);
+    let mut quads = Vec::new();
+    for y in 0..3u32 {
+        for x in 0..3u32 {
+            let a = y * 4 + x;
+            quads.extend([a, a + 1, a + 5, a, a + 5, a + 4]);
+        }
+    }
+    let flat = UniformLaplacian::new(grid.len(), &quads);
+    let lv = flat.apply_reference(&grid);
+    // Inner vertices of this triangulation have 6 neighbours symmetric about them.
+    for i in [5usize, 6, 9, 10] {
+        assert!(
+            lv[i].iter().all(|v| v.abs() < 1e-12),
+            "vertex {i}: {:?}",
+            lv[i]
+        );
+    }
+    assert_eq!(lv[16], [0.0; 3]);
+    assert_eq!(values(flat.apply(tensor(&grid, &device)))[48..51], [0.0; 3]);
+    // The energy's gradient against central differences.
+    let leaf = tensor(&grid, &device).autodiff().require_grad();
+    let grads = flat.energy(leaf.clone()).backward();
+    let g = values(leaf.grad(&grads).unwrap());
+    let energy = |v: &[[f64; 3]]| {
+        flat.apply_reference(v)
+            .iter()
+            .map(|l| l.iter().map(|x| x * x).sum::<f64>())
+            .sum::<f64>()
+            / v.len() as f64
+    };
+    for (i, k) in [(0usize, 0usize), (5, 2), (7, 1), (16, 0)] {
+        let h = 1e-5;
+        let mut plus = grid.clone();
+        plus[i][k] += h;
+        let mut minus = grid.clone();
+        minus[i][k] -= h;
+        let fd = (energy(&plus) - energy(&minus)) / (2.0 * h);
+        assert!(
+            (fd - f64::from(g[i * 3 + k])).abs() < 1e-4,
+            "{i},{k}: {} vs {fd}",
+            g[i * 3 + k]
+        );
+    }
 }

@@ -8,8 +8,8 @@
 use rayon::prelude::*;
 use splatzoo_datasets::formats::SparsePoint;
 use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_models::knn::PointIndex;
 use splatzoo_rasterizer::Camera;
-use std::collections::HashMap;
 
 /// Points to initialise Gaussians from.
 #[derive(Debug, Clone, Default)]
@@ -59,8 +59,8 @@ impl InitPoints {
     }
 }
 
-/// `sqrt(mean d²)` over each point's `k` nearest other points, by a uniform grid searched in
-/// growing shells (exact: a shell is only skipped once it cannot hold a nearer point).
+/// `sqrt(mean d²)` over each point's `k` nearest other points (exact, by the engine's
+/// [`PointIndex`]), floored at 1e-7 of the cloud's diagonal so duplicates stay finite.
 pub fn nearest_neighbour_scales(positions: &[[f32; 3]], k: usize) -> Vec<f32> {
     let n = positions.len();
     if n < 2 {
@@ -76,59 +76,13 @@ pub fn nearest_neighbour_scales(positions: &[[f32; 3]], k: usize) -> Vec<f32> {
     }
     let diagonal = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f32>().sqrt();
     let floor = (diagonal * 1e-7).max(f32::MIN_POSITIVE);
-    // About four points per occupied cell for an evenly spread cloud.
-    let volume: f32 = (0..3)
-        .map(|a| (hi[a] - lo[a]).max(diagonal * 1e-3))
-        .product();
-    let cell = (4.0 * volume / n as f32).cbrt().max(floor);
-    let key = |p: &[f32; 3]| -> [i64; 3] {
-        std::array::from_fn(|a| ((p[a] - lo[a]) / cell).floor() as i64)
-    };
-    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-    for (i, p) in positions.iter().enumerate() {
-        grid.entry(key(p)).or_default().push(i as u32);
-    }
-    let cells_across = ((diagonal / cell).ceil() as i64).max(1) + 1;
+    let index = PointIndex::new(positions);
     positions
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
-            let centre = key(p);
-            let mut best: Vec<f32> = Vec::with_capacity(k + 1); // squared, ascending
-            let mut shell = 0i64;
-            loop {
-                for dx in -shell..=shell {
-                    for dy in -shell..=shell {
-                        for dz in -shell..=shell {
-                            if dx.abs().max(dy.abs()).max(dz.abs()) != shell {
-                                continue;
-                            }
-                            let c = [centre[0] + dx, centre[1] + dy, centre[2] + dz];
-                            for &j in grid.get(&c).map_or(&[][..], |v| v.as_slice()) {
-                                if j as usize == i {
-                                    continue;
-                                }
-                                let q = positions[j as usize];
-                                let d2 = (0..3).map(|a| (q[a] - p[a]).powi(2)).sum::<f32>();
-                                let at = best.partition_point(|&b| b <= d2);
-                                if at < k {
-                                    best.insert(at, d2);
-                                    best.truncate(k);
-                                }
-                            }
-                        }
-                    }
-                }
-                // Every point outside the searched cube is at least `shell · cell` away.
-                let reach = shell as f32 * cell;
-                let done =
-                    best.len() == k.min(n - 1) && best.last().is_some_and(|&b| b <= reach * reach);
-                if done || shell > cells_across {
-                    break;
-                }
-                shell += 1;
-            }
-            let mean = best.iter().sum::<f32>() / best.len().max(1) as f32;
+            let best = index.k_nearest(*p, k, Some(i));
+            let mean = best.iter().map(|&(_, d2)| d2).sum::<f32>() / best.len().max(1) as f32;
             mean.sqrt().max(floor)
         })
         .collect()

@@ -33,3 +33,43 @@ pub fn rodrigues(w: [f64; 3]) -> [[f64; 3]; 3] {
     r[2][1] += s * k[0];
     r
 }
+
+/// A seed from the clock, printed so that a failure can be replayed.
+pub fn fresh_seed() -> u64 {
+    let seed = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64;
+    println!("seed {seed}");
+    seed
+}
+
+/// SplitMix64 uniforms for fresh random inputs.
+pub struct SplitMix(pub u64);
+
+impl SplitMix {
+    /// Uniform in `[0, 1)`.
+    pub fn unit(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in `[-1, 1)`.
+    pub fn signed(&mut self) -> f64 {
+        2.0 * self.unit() - 1.0
+    }
+
+    /// A unit vector, uniform on the sphere.
+    pub fn direction(&mut self) -> [f64; 3] {
+        loop {
+            let d = [self.signed(), self.signed(), self.signed()];
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            if n > 0.1 && n <= 1.0 {
+                return d.map(|v| v / n);
+            }
+        }
+    }
+}
