@@ -3,9 +3,11 @@
 //! initialisation), and the basis as differentiable Burn ops, for methods that evaluate colour
 //! outside the op (a world-frame colour under refined cameras, rendered as features). A
 //! colour is `max(Σ_k Y_k(d) c_k + 0.5, 0)` with `d` the unit direction from the camera centre
-//! to the Gaussian.
+//! to the Gaussian. [`sh_basis_f64`] is the basis in scalar f64, and [`irradiance_f64`] the
+//! cosine-convolved SH radiance (lighting with SH on the CPU).
 
 use burn::tensor::Tensor;
+use std::f64::consts::PI;
 
 /// `Y_0`: the DC basis value (colour = `SH_C0 · dc + 0.5`).
 pub const SH_C0: f64 = 0.282_094_791_773_878_14;
@@ -102,4 +104,40 @@ pub fn sh_colour(coefficients: Tensor<3>, directions: Tensor<2>, degree: u32) ->
         .reshape([n, c])
         .add_scalar(0.5)
         .clamp_min(0.0)
+}
+
+/// The clamped-cosine convolution factors `Â_l` for `l = 0..=3` (Ramamoorthi & Hanrahan 2001).
+pub const COSINE_LOBE_BANDS: [f64; 4] = [PI, 2.0 * PI / 3.0, PI / 4.0, 0.0];
+
+/// The real SH basis `Y_k(d)`, `k < (degree + 1)²`, at direction `d` (normalised here), in
+/// scalar f64: the CPU kernel's basis, for anything that lights with SH on the CPU.
+pub fn sh_basis_f64(degree: u32, d: [f64; 3]) -> Vec<f64> {
+    assert!(degree <= 3, "sh_basis_f64: degree {degree} > 3");
+    let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    assert!(length > 0.0, "sh_basis_f64: zero direction");
+    let mut out = [0.0f64; 16];
+    crate::cpu::sh::basis(degree, d.map(|v| v / length), &mut out, None);
+    out[..coeff_count(degree)].to_vec()
+}
+
+/// The irradiance `E(n) = ∫ L(ω) max(ω·n, 0) dω = Σ_lm Â_l c_lm Y_lm(n)` of the unclamped SH
+/// radiance `L(ω) = Σ c_k Y_k(ω)` (no +0.5 offset: a light, not a colour) of the first
+/// `(degree + 1)²` coefficients of `sh`, at unit `normal` (Ramamoorthi & Hanrahan 2001). A
+/// Lambertian surface of albedo `b` sends out `b E(n) / π`.
+pub fn irradiance_f64(sh: &[[f64; 3]], degree: u32, normal: [f64; 3]) -> [f64; 3] {
+    let basis = sh_basis_f64(degree, normal);
+    assert!(
+        sh.len() >= basis.len(),
+        "irradiance_f64: {} coefficients, degree {degree} needs {}",
+        sh.len(),
+        basis.len()
+    );
+    let band = |k: usize| COSINE_LOBE_BANDS[(k as f64).sqrt() as usize];
+    std::array::from_fn(|ch| {
+        basis
+            .iter()
+            .enumerate()
+            .map(|(k, y)| band(k) * sh[k][ch] * y)
+            .sum()
+    })
 }

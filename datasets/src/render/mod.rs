@@ -15,6 +15,7 @@ pub use visibility::{Hit, MeshRef, Projection, View};
 use rayon::prelude::*;
 use shadow::ShadowMap;
 use splatzoo_rasterizer::Camera;
+use splatzoo_rasterizer::sh::{irradiance_f64, sh_basis_f64};
 use visibility::V3;
 
 /// How a mesh is coloured.
@@ -57,7 +58,12 @@ pub enum Light {
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lighting {
+    /// Uniform radiance from every direction (a Lambertian surface sends out `b · ambient`).
     pub ambient: [f32; 3],
+    /// An SH radiance environment of degree 2 (INRIA basis, no +0.5 offset), unshadowed like
+    /// the ambient term: a Lambertian surface sends out `b · E(n) / π` with `E` its irradiance
+    /// ([`splatzoo_rasterizer::sh::irradiance_f64`]).
+    pub environment: Option<[[f32; 3]; 9]>,
     pub light: Option<Light>,
     /// Shadow-map resolution (per cube face for point lights); `None` renders without shadows.
     pub shadow_resolution: Option<usize>,
@@ -67,12 +73,56 @@ impl Default for Lighting {
     fn default() -> Self {
         Self {
             ambient: [0.35; 3],
+            environment: None,
             light: Some(Light::Directional {
                 direction: [0.3, -1.0, -0.4],
                 color: [0.75; 3],
             }),
             shadow_resolution: Some(1024),
         }
+    }
+}
+
+impl Lighting {
+    /// The SH radiance (degree 2, INRIA basis, no +0.5, `[9]` of RGB) arriving at `point` with
+    /// no occluder: the uniform ambient `a` as `a √(4π)` on the DC term, the environment as is,
+    /// and the light as a delta of strength `π I` (directional) or `π I / d²` (point) towards it,
+    /// `L_lm = π I Y_lm(ω_light)`. Its irradiance ([`splatzoo_rasterizer::sh::irradiance_f64`])
+    /// is exactly this renderer's `ambient + environment` terms and the band-limited (l ≤ 2)
+    /// version of its `I cos θ / d²` term: the ground truth a light probe at `point` should learn.
+    pub fn radiance_sh(&self, point: [f64; 3]) -> [[f64; 3]; 9] {
+        let mut sh = [[0.0f64; 3]; 9];
+        let dc = (4.0 * std::f64::consts::PI).sqrt();
+        for (c, a) in self.ambient.iter().enumerate() {
+            sh[0][c] += f64::from(*a) * dc;
+        }
+        if let Some(environment) = &self.environment {
+            for (k, row) in environment.iter().enumerate() {
+                for c in 0..3 {
+                    sh[k][c] += f64::from(row[c]);
+                }
+            }
+        }
+        let delta = match self.light {
+            None => None,
+            Some(Light::Directional { direction, color }) => {
+                Some((direction.map(|x| -f64::from(x)), color.map(f64::from)))
+            }
+            Some(Light::Point { position, color }) => {
+                let d = sub(position.map(f64::from), point);
+                let r2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).max(1e-6);
+                Some((d, color.map(|c| f64::from(c) / r2)))
+            }
+        };
+        if let Some((towards, strength)) = delta {
+            let basis = sh_basis_f64(2, towards);
+            for (k, y) in basis.iter().enumerate() {
+                for c in 0..3 {
+                    sh[k][c] += std::f64::consts::PI * strength[c] * y;
+                }
+            }
+        }
+        sh
     }
 }
 
@@ -102,6 +152,8 @@ pub struct MeshRender {
     pub color: Vec<[f32; 3]>,
     /// The same without shadows (equal to `color` when shadows are off).
     pub color_unshadowed: Vec<[f32; 3]>,
+    /// Linear albedo of what each sample sees (0 on the background), averaged like `color`.
+    pub albedo: Vec<[f32; 3]>,
     /// Camera-space depth (+z); infinite on the background.
     pub depth: Vec<f32>,
     /// World-space unit normals facing the camera; zero on the background.
@@ -263,8 +315,11 @@ pub fn render_with_shadows(
         .collect();
     let camera_position = camera.position().map(f64::from);
 
-    // Shade every sample: (colour, unshadowed colour, world normal).
-    let shade = |hit: &Hit| -> ([f64; 3], [f64; 3], V3) {
+    let environment = lighting
+        .environment
+        .map(|e| e.map(|row| row.map(f64::from)));
+    // Shade every sample: (colour, unshadowed colour, world normal, albedo).
+    let shade = |hit: &Hit| -> ([f64; 3], [f64; 3], V3, V3) {
         let mesh = &meshes[hit.mesh as usize];
         let face = mesh.faces[hit.face as usize];
         let corner = |k: usize| mesh.positions[face[k] as usize].map(f64::from);
@@ -318,7 +373,13 @@ pub fn render_with_shadows(
                 texture.sample(u as f32, v as f32).map(f64::from)
             }
         };
-        let ambient = lighting.ambient.map(f64::from);
+        let mut ambient = lighting.ambient.map(f64::from);
+        if let Some(environment) = &environment {
+            let irradiance = irradiance_f64(environment, 2, n);
+            for c in 0..3 {
+                ambient[c] += irradiance[c] / std::f64::consts::PI;
+            }
+        }
         let (direct, lit) = match lighting.light {
             None => ([0.0; 3], 1.0),
             Some(Light::Directional { direction, color }) => {
@@ -338,7 +399,7 @@ pub fn render_with_shadows(
         };
         let color = std::array::from_fn(|c| albedo[c] * (ambient[c] + lit * direct[c]));
         let unshadowed = std::array::from_fn(|c| albedo[c] * (ambient[c] + direct[c]));
-        (color, unshadowed, n)
+        (color, unshadowed, n, albedo)
     };
 
     let (w, h) = (camera.width as usize, camera.height as usize);
@@ -350,21 +411,23 @@ pub fn render_with_shadows(
             let (x, y) = (i % w, i / w);
             let mut color = [0.0; 3];
             let mut unshadowed = [0.0; 3];
+            let mut albedo = [0.0; 3];
             let mut covered = 0usize;
             let mut centre = None;
             for sy in 0..s {
                 for sx in 0..s {
                     let hit = hits[(y * s + sy) * view.width + x * s + sx];
-                    let (c, u, n) = match &hit {
+                    let (c, u, n, a) = match &hit {
                         Some(hit) => {
                             covered += 1;
                             shade(hit)
                         }
-                        None => (background, background, [0.0; 3]),
+                        None => (background, background, [0.0; 3], [0.0; 3]),
                     };
                     for k in 0..3 {
                         color[k] += c[k];
                         unshadowed[k] += u[k];
+                        albedo[k] += a[k];
                     }
                     if sx == centre_sample && sy == centre_sample {
                         centre = hit.map(|hit| (hit, n));
@@ -387,6 +450,7 @@ pub fn render_with_shadows(
                 normal,
                 label,
                 (covered as f64 * inv) as f32,
+                albedo.map(|c| (c * inv) as f32),
             )
         })
         .collect();
@@ -399,5 +463,6 @@ pub fn render_with_shadows(
         normal: pixels.iter().map(|p| p.3).collect(),
         label: pixels.iter().map(|p| p.4).collect(),
         coverage: pixels.iter().map(|p| p.5).collect(),
+        albedo: pixels.iter().map(|p| p.6).collect(),
     }
 }

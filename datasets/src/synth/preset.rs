@@ -112,6 +112,7 @@ impl SceneConfig {
             tracks,
             lighting: Lighting {
                 ambient: [ambient; 3],
+                environment: None,
                 light: Some(light),
                 shadow_resolution: self.shadow_resolution,
             },

@@ -1,12 +1,14 @@
 //! The mesh renderer against geometry with known answers: coverage and depth of planes
 //! (perspective-correct), textures at the right place, shadows where an occluder is, masks
-//! consistent with depth, normals consistent with depth, near-plane clipping, determinism.
+//! consistent with depth, normals consistent with depth, near-plane clipping, determinism; an
+//! SH environment lighting by its irradiance, the albedo buffer, and the analytic probe SH.
 
 use splatzoo_datasets::render::{
     Albedo, Light, Lighting, MeshInstance, RenderSettings, Texture, render,
 };
 use splatzoo_models::body::builtin_body;
 use splatzoo_rasterizer::Camera;
+use splatzoo_rasterizer::sh::irradiance_f64;
 
 fn quad(corners: [[f32; 3]; 4]) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     (corners.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
@@ -33,6 +35,7 @@ fn body_mesh() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
 fn flat_light() -> Lighting {
     Lighting {
         ambient: [1.0; 3],
+        environment: None,
         light: None,
         shadow_resolution: None,
     }
@@ -258,6 +261,7 @@ fn shadow_scene(light: Light) {
     );
     let lighting = Lighting {
         ambient: [0.2; 3],
+        environment: None,
         light: Some(light),
         shadow_resolution: Some(512),
     };
@@ -437,4 +441,104 @@ fn output_does_not_depend_on_thread_count() {
     assert_eq!(a.color, b.color);
     assert_eq!(a.depth, b.depth);
     assert_eq!(a.label, b.label);
+}
+
+/// A wall facing the camera lit only by an SH environment sends out `b E(n) / π`; the albedo
+/// buffer holds `b` on the wall and 0 on the background.
+#[test]
+fn an_sh_environment_lights_by_its_irradiance_and_the_albedo_buffer_holds_the_albedo() {
+    let (p, f) = quad([
+        [-1.0, -1.0, 3.0],
+        [1.0, -1.0, 3.0],
+        [1.0, 1.0, 3.0],
+        [-1.0, 1.0, 3.0],
+    ]);
+    let albedo = [0.6, 0.4, 0.2];
+    let wall = MeshInstance {
+        positions: &p,
+        faces: &f,
+        albedo: Albedo::Uniform(albedo),
+        label: 1,
+        smooth: false,
+    };
+    let mut environment = [[0.0f32; 3]; 9];
+    environment[0] = [2.0, 1.5, 1.0];
+    environment[2] = [0.3, -0.2, 0.1]; // Y_1,0 ∝ z: brighter light from +z
+    environment[6] = [0.2, 0.2, -0.1];
+    let lighting = Lighting {
+        ambient: [0.0; 3],
+        environment: Some(environment),
+        light: None,
+        shadow_resolution: None,
+    };
+    let camera = identity_camera(32, 32, 30.0);
+    let settings = RenderSettings {
+        background: [0.0; 3],
+        supersample: 1,
+    };
+    let out = render(&[wall], &camera, &lighting, &settings);
+    let centre = 16 * 32 + 16;
+    // The wall's normal faces the camera: −z.
+    let sh = environment.map(|row| row.map(f64::from));
+    let e = irradiance_f64(&sh, 2, [0.0, 0.0, -1.0]);
+    for c in 0..3 {
+        let want = f64::from(albedo[c]) * e[c] / std::f64::consts::PI;
+        assert!(
+            (f64::from(out.color[centre][c]) - want).abs() < 1e-5,
+            "{c}: {:?}",
+            out.color[centre]
+        );
+        assert_eq!(out.albedo[centre][c], albedo[c]);
+        assert_eq!(out.albedo[0][c], 0.0, "the corner sees the background");
+    }
+}
+
+/// The analytic probe SH: ambient as π·a of irradiance, and a point light's band-limited
+/// clamped cosine, `π I/d² Σ_{l ≤ 2} Â_l (2l + 1)/(4π) P_l(cos θ)` (the addition theorem).
+#[test]
+fn probe_sh_of_the_lighting_reproduces_its_irradiance() {
+    use std::f64::consts::PI;
+    let lighting = Lighting {
+        ambient: [0.2, 0.3, 0.4],
+        environment: None,
+        light: Some(Light::Point {
+            position: [1.0, 2.0, -0.5],
+            color: [3.0, 2.0, 1.0],
+        }),
+        shadow_resolution: None,
+    };
+    let mut seed = 0x1234_5678u64;
+    let mut next = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    };
+    for _ in 0..20 {
+        let point = [next(), next(), next()];
+        let n = {
+            let v = [next(), next(), next()];
+            let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-3);
+            v.map(|x| x / l)
+        };
+        let sh = lighting.radiance_sh(point);
+        let e = irradiance_f64(&sh, 2, n);
+        let d = [1.0 - point[0], 2.0 - point[1], -0.5 - point[2]];
+        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let cos = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) / r2.sqrt();
+        let legendre = [1.0, cos, 0.5 * (3.0 * cos * cos - 1.0)];
+        let bands = [PI, 2.0 * PI / 3.0, PI / 4.0];
+        let lobe: f64 = (0..3)
+            .map(|l| bands[l] * (2 * l + 1) as f64 / (4.0 * PI) * legendre[l])
+            .sum();
+        for (c, (a, i)) in [(0.2, 3.0), (0.3, 2.0), (0.4, 1.0)].into_iter().enumerate() {
+            let want = PI * a + PI * i / r2 * lobe;
+            // f32 inputs (0.2f32 is not 0.2) bound the agreement.
+            assert!(
+                (e[c] - want).abs() < 1e-7 * want.abs().max(1.0),
+                "{c}: {} vs {want}",
+                e[c]
+            );
+        }
+    }
 }

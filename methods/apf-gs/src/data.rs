@@ -224,6 +224,7 @@ fn prior_owner(meshes: &[&[[f32; 3]]], faces: &[[u32; 3]], camera: &Camera) -> V
         .collect();
     let lighting = Lighting {
         ambient: [1.0; 3],
+        environment: None,
         light: None,
         shadow_resolution: None,
     };

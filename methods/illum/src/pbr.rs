@@ -8,15 +8,13 @@
 //! is flipped to face the viewer first (spec, Eq. 5). `c'` is linear RGB; [`linear_to_srgb`]
 //! encodes it per Gaussian before the splat.
 //!
-//! [`shade`] is Burn ops; [`shade_reference`] is one Gaussian in scalar f64, on its own f64 SH
-//! basis ([`sh_basis_reference`], written from the closed forms) and [`brdf_reference`].
-//! [`irradiance_reference`] is the analytic diffuse irradiance `Σ Â_l c_lm Y_lm(n)` the Monte-Carlo
-//! sum must approach (spec §8, check 2).
-
-use std::f64::consts::PI;
+//! [`shade`] is Burn ops; [`shade_reference`] is one Gaussian in scalar f64, on the f64 SH
+//! basis ([`splatzoo_rasterizer::sh::sh_basis_f64`]) and [`brdf_reference`].
+//! [`splatzoo_rasterizer::sh::irradiance_f64`] is the analytic diffuse irradiance
+//! `Σ Â_l c_lm Y_lm(n)` the Monte-Carlo sum must approach (spec §8, check 2).
 
 use burn::tensor::Tensor;
-use splatzoo_rasterizer::sh::{coeff_count, sh_basis};
+use splatzoo_rasterizer::sh::{coeff_count, sh_basis, sh_basis_f64};
 
 use crate::brdf::{brdf_reference, diffuse, specular};
 use crate::sampling::solid_angle_weight;
@@ -26,9 +24,6 @@ pub const SRGB_LINEAR_KNEE: f64 = 0.003_130_8;
 
 /// sRGB's knee on the encoded side (`12.92 ×` [`SRGB_LINEAR_KNEE`], rounded as the standard does).
 pub const SRGB_ENCODED_KNEE: f64 = 0.040_45;
-
-/// The clamped-cosine convolution factors `Â_l` for `l = 0..=3` (Ramamoorthi & Hanrahan 2001).
-pub const COSINE_LOBE_BANDS: [f64; 4] = [PI, 2.0 * PI / 3.0, PI / 4.0, 0.0];
 
 /// The shading knobs of Eq. 7.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -196,67 +191,15 @@ pub fn srgb_to_linear_reference(x: f64) -> f64 {
     }
 }
 
-/// The real SH basis `Y_k(d)`, `k < (degree + 1)²`, at direction `d` (normalised here), in f64
-/// from the closed forms, with the INRIA 3DGS signs of `splatzoo_rasterizer::sh`.
-pub fn sh_basis_reference(degree: u32, d: [f64; 3]) -> Vec<f64> {
-    assert!(degree <= 3, "sh_basis_reference: degree {degree} > 3");
-    let length = dot(d, d).sqrt();
-    assert!(length > 0.0, "sh_basis_reference: zero direction");
-    let [x, y, z] = d.map(|v| v / length);
-    let c1 = (3.0 / (4.0 * PI)).sqrt();
-    let c2 = 0.5 * (15.0 / PI).sqrt();
-    let c3a = 0.25 * (35.0 / (2.0 * PI)).sqrt();
-    let c3b = 0.25 * (21.0 / (2.0 * PI)).sqrt();
-    let all = [
-        0.5 / PI.sqrt(),
-        -c1 * y,
-        c1 * z,
-        -c1 * x,
-        c2 * x * y,
-        -c2 * y * z,
-        0.25 * (5.0 / PI).sqrt() * (2.0 * z * z - x * x - y * y),
-        -c2 * x * z,
-        0.5 * c2 * (x * x - y * y),
-        -c3a * y * (3.0 * x * x - y * y),
-        0.5 * (105.0 / PI).sqrt() * x * y * z,
-        -c3b * y * (4.0 * z * z - x * x - y * y),
-        0.25 * (7.0 / PI).sqrt() * z * (2.0 * z * z - 3.0 * x * x - 3.0 * y * y),
-        -c3b * x * (4.0 * z * z - x * x - y * y),
-        0.25 * (105.0 / PI).sqrt() * z * (x * x - y * y),
-        -c3a * x * (x * x - 3.0 * y * y),
-    ];
-    all[..coeff_count(degree)].to_vec()
-}
-
 /// [`incident_radiance`] in f64: `max(Σ_k c_k Y_k(d), 0)` per channel, degree from `sh.len()`.
 pub fn radiance_reference(sh: &[[f64; 3]], d: [f64; 3]) -> [f64; 3] {
-    let basis = sh_basis_reference(sh_degree(sh.len()), d);
+    let basis = sh_basis_f64(sh_degree(sh.len()), d);
     std::array::from_fn(|ch| {
         sh.iter()
             .zip(&basis)
             .map(|(c, y)| c[ch] * y)
             .sum::<f64>()
             .max(0.0)
-    })
-}
-
-/// The irradiance `E(n) = ∫ L(ω) max(ω·n, 0) dω = Σ_lm Â_l c_lm Y_lm(n)` of the unclamped SH
-/// radiance of the first `(degree + 1)²` coefficients of `sh`, at unit `normal`.
-pub fn irradiance_reference(sh: &[[f64; 3]], degree: u32, normal: [f64; 3]) -> [f64; 3] {
-    let basis = sh_basis_reference(degree, normal);
-    assert!(
-        sh.len() >= basis.len(),
-        "irradiance_reference: {} coefficients, degree {degree} needs {}",
-        sh.len(),
-        basis.len()
-    );
-    let band = |k: usize| COSINE_LOBE_BANDS[(k as f64).sqrt() as usize];
-    std::array::from_fn(|ch| {
-        basis
-            .iter()
-            .enumerate()
-            .map(|(k, y)| band(k) * sh[k][ch] * y)
-            .sum()
     })
 }
 

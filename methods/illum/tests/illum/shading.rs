@@ -12,12 +12,13 @@ use crate::{Rng, fresh_seed, values};
 use burn::tensor::{Device, Tensor};
 use splatzoo_illum::pbr::{
     SRGB_ENCODED_KNEE, SRGB_LINEAR_KNEE, ShadeInputs, ShadePoint, Shading, face_forward,
-    irradiance_reference, linear_to_srgb, linear_to_srgb_reference, sh_basis_reference, shade,
-    shade_reference, srgb_to_linear, srgb_to_linear_reference,
+    linear_to_srgb, linear_to_srgb_reference, shade, shade_reference, srgb_to_linear,
+    srgb_to_linear_reference,
 };
 use splatzoo_illum::sampling::{
     HemisphereRule, fibonacci_hemisphere, fibonacci_hemisphere_reference,
 };
+use splatzoo_rasterizer::sh::{irradiance_f64, sh_basis_f64};
 
 const DIFFUSE_ONLY: Shading = Shading { specular: false };
 
@@ -216,7 +217,7 @@ fn monte_carlo_diffuse_approaches_the_analytic_irradiance() {
             let directions =
                 fibonacci_hemisphere_reference(n, count, HemisphereRule::Midpoint, offset);
             for d in &directions {
-                let basis = sh_basis_reference(degree, *d);
+                let basis = sh_basis_f64(degree, *d);
                 let lowest = (0..3)
                     .map(|ch| {
                         scene.sh[i]
@@ -232,7 +233,7 @@ fn monte_carlo_diffuse_approaches_the_analytic_irradiance() {
                 );
             }
             let reference = shade_reference(&scene.point(i, &directions, None), &DIFFUSE_ONLY);
-            let irradiance = irradiance_reference(&scene.sh[i], degree, n);
+            let irradiance = irradiance_f64(&scene.sh[i], degree, n);
             for ch in 0..3 {
                 let want = scene.albedo[i][ch] / PI * irradiance[ch];
                 let what = format!("degree {degree}, Gaussian {i}");
