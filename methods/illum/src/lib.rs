@@ -29,6 +29,7 @@
 //! paper leaves open.
 
 pub mod brdf;
+pub mod data;
 mod error;
 pub mod human;
 pub mod light_volume;

@@ -4,6 +4,7 @@
 //! ray-cast labels, stage 1's refined body, stage 2's lighting pipeline and the joint render.
 
 mod brdf;
+mod data;
 mod human;
 mod light_volume;
 mod lighting;
