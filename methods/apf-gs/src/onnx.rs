@@ -16,9 +16,8 @@ use crate::error::ApfError;
 use crate::networks::{AccessoryField, ApfNetworks, Guidance, NetworkConfig, ResidualField};
 use burn::tensor::activation::sigmoid;
 use burn::tensor::{Device, Distribution, Tensor};
-use burn_onnx::export::OnnxExporter;
-use splatzoo_train::onnx::{OnnxError, verify, write_graph, write_vectors};
-use std::path::{Path, PathBuf};
+use splatzoo_train::onnx::{ExportedGraph, OnnxError, export_rows};
+use std::path::Path;
 
 /// Each graph's file stem, input and output names.
 pub const GRAPHS: [(&str, &str, &str); 3] = [
@@ -33,43 +32,6 @@ pub fn guidance_output(net: &Guidance, inputs: Tensor<2>) -> Tensor<2> {
     Tensor::cat(vec![condition, sigmoid(logit)], 1)
 }
 
-/// One exported graph: its file and its vectors, and tract's largest relative difference from
-/// Burn on them.
-#[derive(Debug, Clone)]
-pub struct ExportedGraph {
-    pub graph: PathBuf,
-    pub vectors: PathBuf,
-    pub relative_error: f32,
-}
-
-fn export_one<M: burn::module::Module>(
-    module: &M,
-    forward: fn(&M, Tensor<2>) -> Tensor<2>,
-    samples: &[Tensor<2>],
-    (stem, input, output): (&str, &str, &str),
-    dir: &Path,
-) -> Result<ExportedGraph, ApfError> {
-    let graph = dir.join(format!("{stem}.onnx"));
-    let vectors = dir.join(format!("{stem}.vectors.safetensors"));
-    let model = OnnxExporter::new()
-        .export(module, samples[0].clone(), forward)
-        .map_err(|e| OnnxError::new(&graph, format!("exporting {stem}: {e}")))
-        .map_err(splatzoo_train::TrainError::from)?;
-    write_graph(model.as_bytes(), &[input], &[output], &graph)
-        .map_err(splatzoo_train::TrainError::from)?;
-    let pairs: Vec<(Tensor<2>, Tensor<2>)> = samples
-        .iter()
-        .map(|x| (x.clone(), forward(module, x.clone())))
-        .collect();
-    write_vectors(&vectors, input, output, &pairs).map_err(splatzoo_train::TrainError::from)?;
-    let relative_error = verify(&graph, &vectors).map_err(splatzoo_train::TrainError::from)?;
-    Ok(ExportedGraph {
-        graph,
-        vectors,
-        relative_error,
-    })
-}
-
 /// Writes the three graphs with two test vectors each into `dir` (`nets` without autodiff),
 /// for `gaussians` human Gaussians and `accessory_rows` accessory Gaussians, and checks each in
 /// tract.
@@ -81,35 +43,35 @@ pub fn export(
     dir: &Path,
     device: &Device,
 ) -> Result<Vec<ExportedGraph>, ApfError> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| OnnxError::new(dir, format!("cannot create ({e})")))
-        .map_err(splatzoo_train::TrainError::from)?;
     let samples = |rows: usize, width: usize| -> Vec<Tensor<2>> {
         (0..2)
             .map(|_| Tensor::random([rows, width], Distribution::Normal(0.0, 1.0), device))
             .collect()
     };
-    Ok(vec![
-        export_one(
-            &nets.guidance,
-            guidance_output,
-            &samples(1, config.guidance_inputs()),
-            GRAPHS[0],
-            dir,
-        )?,
-        export_one(
-            &nets.residual,
-            |m: &ResidualField, x| m.forward(x),
-            &samples(gaussians.max(1), config.residual_inputs()),
-            GRAPHS[1],
-            dir,
-        )?,
-        export_one(
-            &nets.accessory,
-            |m: &AccessoryField, x| m.forward(x),
-            &samples(accessory_rows.max(1), config.accessory_inputs()),
-            GRAPHS[2],
-            dir,
-        )?,
-    ])
+    let graphs = || -> Result<Vec<ExportedGraph>, OnnxError> {
+        Ok(vec![
+            export_rows(
+                &nets.guidance,
+                guidance_output,
+                &samples(1, config.guidance_inputs()),
+                GRAPHS[0],
+                dir,
+            )?,
+            export_rows(
+                &nets.residual,
+                |m: &ResidualField, x| m.forward(x),
+                &samples(gaussians.max(1), config.residual_inputs()),
+                GRAPHS[1],
+                dir,
+            )?,
+            export_rows(
+                &nets.accessory,
+                |m: &AccessoryField, x| m.forward(x),
+                &samples(accessory_rows.max(1), config.accessory_inputs()),
+                GRAPHS[2],
+                dir,
+            )?,
+        ])
+    };
+    graphs().map_err(|e| ApfError::from(splatzoo_train::TrainError::from(e)))
 }

@@ -2,11 +2,14 @@
 //! wrong with it.
 
 use splatzoo_rasterizer::RasterError;
+use splatzoo_train::TrainError;
 
 #[derive(Debug, thiserror::Error)]
 pub enum IllumError {
     #[error(transparent)]
     Raster(#[from] RasterError),
+    #[error(transparent)]
+    Train(#[from] TrainError),
     /// An input that cannot drive the method: what it is and what is wrong with it.
     #[error("{what}: {problem}")]
     Input { what: String, problem: String },

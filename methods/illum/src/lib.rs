@@ -34,6 +34,7 @@ mod error;
 pub mod human;
 pub mod light_volume;
 pub mod lighting;
+pub mod onnx;
 pub mod pbr;
 pub mod render;
 pub mod sampling;

@@ -185,7 +185,12 @@ impl ShadowDecoder {
     /// Input rows `[R, 40 + d_z]` (from [`decoder_inputs`]) → `ao` `[R]`.
     pub fn forward(&self, inputs: Tensor<2>) -> Tensor<1> {
         let r = inputs.dims()[0];
-        sigmoid(self.output.forward(self.trunk.forward(inputs))).reshape([r])
+        self.forward_rows(inputs).reshape([r])
+    }
+
+    /// Input rows `[R, 40 + d_z]` → `ao` `[R, 1]` (the ONNX graph's map).
+    pub fn forward_rows(&self, inputs: Tensor<2>) -> Tensor<2> {
+        sigmoid(self.output.forward(self.trunk.forward(inputs)))
     }
 }
 

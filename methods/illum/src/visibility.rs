@@ -111,7 +111,17 @@ impl VisibilityNet {
             frequency_encoding(directions.reshape([n * s, 3]), self.config.direction_levels);
         let pose = pose.unsqueeze_dim::<2>(0).expand([n * s, self.pose_width]);
         let input = Tensor::cat(vec![position, direction, pose], 1);
-        self.head.forward(self.trunk.forward(input)).reshape([n, s])
+        self.logit_rows(input).reshape([n, s])
+    }
+
+    /// Logits `[R, 1]` of input rows `[R, input_width]` = `[γ(v) ‖ γ(φ) ‖ θ]`.
+    pub fn logit_rows(&self, input: Tensor<2>) -> Tensor<2> {
+        self.head.forward(self.trunk.forward(input))
+    }
+
+    /// Visibility `[R, 1]` of input rows (the ONNX graph's map).
+    pub fn probability_rows(&self, input: Tensor<2>) -> Tensor<2> {
+        sigmoid(self.logit_rows(input))
     }
 
     /// Visibility probabilities `[N, S]` in `(0, 1)`.

@@ -64,15 +64,17 @@ impl HashMlp {
 
     /// `[N, outputs]` at precomputed fixed queries.
     pub fn forward_queries(&self, queries: &HashQueries) -> Tensor<2> {
-        self.network(self.grid.encode_queries(queries))
+        self.forward_code(self.grid.encode_queries(queries))
     }
 
     /// `[N, outputs]` at `[N, 3]` points in the unit cube.
     pub fn forward(&self, points: Tensor<2>) -> Tensor<2> {
-        self.network(self.grid.encode(points))
+        self.forward_code(self.grid.encode(points))
     }
 
-    fn network(&self, code: Tensor<2>) -> Tensor<2> {
+    /// `[N, outputs]` from hash codes `[N, L·F]`: the MLP and head alone (what an ONNX graph
+    /// of the field's network takes, the encoding done outside it).
+    pub fn forward_code(&self, code: Tensor<2>) -> Tensor<2> {
         let x = self
             .hidden
             .iter()

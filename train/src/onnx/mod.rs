@@ -2,16 +2,19 @@
 //! inputs and outputs for what they are ([`rename_graph_io`]; burn-onnx 0.22 names them
 //! `tensor_<id>`), writing it atomically, test vectors beside it (inputs and Burn's outputs
 //! keyed `<name>.k`), and running it in tract, a pure-Rust ONNX runtime, to check every export
-//! against Burn before it is reported ([`verify`]). The export itself (burn-onnx's
-//! `OnnxExporter` over a module's forward) stays with each method, which knows its graphs.
+//! against Burn before it is reported ([`verify`]). [`export_rows`] does all of it for the
+//! common case, a module's row-wise map `[R, I] → [R, O]`; a method with other graph shapes
+//! drives burn-onnx's `OnnxExporter` itself.
 
 mod names;
 
 pub use names::{graph_io_names, rename_graph_io, run_graph_named};
 
 use crate::checkpoint::Checkpoint;
+use burn::module::Module;
 use burn::tensor::Tensor;
-use std::path::Path;
+use burn_onnx::export::OnnxExporter;
+use std::path::{Path, PathBuf};
 
 /// An ONNX graph or its test vectors could not be written, read or run: the file and what went
 /// wrong.
@@ -29,6 +32,50 @@ impl OnnxError {
             problem: problem.to_string(),
         }
     }
+}
+
+/// One exported graph: its file and its vectors, and tract's largest relative difference from
+/// Burn on them.
+#[derive(Debug, Clone)]
+pub struct ExportedGraph {
+    pub graph: PathBuf,
+    pub vectors: PathBuf,
+    pub relative_error: f32,
+}
+
+/// Exports `forward` of `module` (without autodiff), a row-wise map `[R, I] → [R, O]` whose row
+/// count the first sample fixes (burn-onnx 0.22 does not slice dynamic axes), to
+/// `dir/<stem>.onnx` with its input and output named; writes every sample and Burn's output for
+/// it to `dir/<stem>.vectors.safetensors`; and checks the graph on them in tract.
+pub fn export_rows<M: Module>(
+    module: &M,
+    forward: fn(&M, Tensor<2>) -> Tensor<2>,
+    samples: &[Tensor<2>],
+    (stem, input, output): (&str, &str, &str),
+    dir: &Path,
+) -> Result<ExportedGraph, OnnxError> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| OnnxError::new(dir, format!("cannot create ({e})")))?;
+    let graph = dir.join(format!("{stem}.onnx"));
+    let vectors = dir.join(format!("{stem}.vectors.safetensors"));
+    let first = samples
+        .first()
+        .ok_or_else(|| OnnxError::new(&graph, "no sample inputs to export with"))?;
+    let model = OnnxExporter::new()
+        .export(module, first.clone(), forward)
+        .map_err(|e| OnnxError::new(&graph, format!("exporting {stem}: {e}")))?;
+    write_graph(model.as_bytes(), &[input], &[output], &graph)?;
+    let pairs: Vec<(Tensor<2>, Tensor<2>)> = samples
+        .iter()
+        .map(|x| (x.clone(), forward(module, x.clone())))
+        .collect();
+    write_vectors(&vectors, input, output, &pairs)?;
+    let relative_error = verify(&graph, &vectors)?;
+    Ok(ExportedGraph {
+        graph,
+        vectors,
+        relative_error,
+    })
 }
 
 /// Names the graph's inputs and outputs (positionally) and writes it to `path` atomically.

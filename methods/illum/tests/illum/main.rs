@@ -5,9 +5,11 @@
 
 mod brdf;
 mod data;
+mod extremes;
 mod human;
 mod light_volume;
 mod lighting;
+mod onnx;
 mod render;
 mod sampling;
 mod shading;
