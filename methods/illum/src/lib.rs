@@ -24,8 +24,8 @@
 //! | Eq. 12 | ao smoothness over scene neighbours | [`smoothness::shadow_smoothness`] |
 //! | Eq. 13 | probe smoothness over grid face-neighbours | [`light_volume::LightVolume::probe_smoothness`] |
 //!
-//! Eq. 10, 14 and 15 (the image, smoothness and total losses) and the two training stages come
-//! with the trainer; the crate's `README.md` lists what is built so far and every choice the
+//! Stage 1's objective (L_human of Eq. 10, L_mesh, L_scale) is [`stage1::stage1_terms`]; the
+//! joint Eq. 10, 14 and 15 and the two training schedules come with the trainer; the crate's `README.md` lists what is built so far and every choice the
 //! paper leaves open.
 
 pub mod brdf;
@@ -40,6 +40,7 @@ pub mod render;
 pub mod sampling;
 pub mod shadow;
 pub mod smoothness;
+pub mod stage1;
 pub mod visibility;
 
 pub use error::IllumError;

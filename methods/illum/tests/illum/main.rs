@@ -15,6 +15,7 @@ mod sampling;
 mod shading;
 mod shadow;
 mod smoothness;
+mod stage1;
 mod visibility;
 
 use burn::tensor::Tensor;
