@@ -15,6 +15,9 @@
 //!   seen from the fixed camera, under the training light.
 //! - **Probe truth** ([`IllumCapture::probe_truth`]): the analytic SH radiance at any point
 //!   ([`splatzoo_datasets::render::Lighting::radiance_sh`]), unoccluded.
+//! - **Room B** ([`Room::B`]): the same identity filmed the same way in another room under
+//!   another light ([`room_b_lighting`]), for transfer: a method reconstructs B from B's video,
+//!   moves A's human in, and B's own frames are the ground truth of the same person there.
 //!
 //! The renderer is linear Lambert; images are sRGB-encoded like a camera's, so a method's
 //! linear albedo is `sRGB⁻¹` of what it sees under unit light.
@@ -24,6 +27,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use rayon::prelude::*;
 use splatzoo_datasets::image_io::linear_to_srgb;
 use splatzoo_datasets::render::{Light, Lighting};
+use splatzoo_datasets::synth::environment;
 use splatzoo_datasets::synth::motion::{Motion, Start, generate};
 use splatzoo_datasets::synth::rig::{CameraTrack, Lens, fixed};
 use splatzoo_datasets::synth::scene::{Person, standing_height};
@@ -32,10 +36,21 @@ use splatzoo_rasterizer::Camera;
 use splatzoo_train::views::InitPoints;
 use splatzoo_train::views::init_points::back_project;
 
+/// Which room the person is filmed in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Room {
+    /// The `monocular` preset's room under [`training_lighting`].
+    #[default]
+    A,
+    /// A smaller room with other furniture under [`room_b_lighting`] (the transfer target).
+    B,
+}
+
 /// The capture's size and split.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IllumDataConfig {
     pub seed: u64,
+    pub room: Room,
     pub width: u32,
     pub height: u32,
     /// Frames of the hand-held video.
@@ -56,6 +71,7 @@ impl Default for IllumDataConfig {
     fn default() -> Self {
         Self {
             seed: 11,
+            room: Room::A,
             width: 160,
             height: 120,
             frames: 60,
@@ -101,6 +117,23 @@ pub fn training_lighting(shadow_resolution: usize) -> Lighting {
         light: Some(Light::Point {
             position: [2.4, 1.4, 0.6],
             color: [4.2, 3.6, 2.8],
+        }),
+        shadow_resolution: Some(shadow_resolution),
+    }
+}
+
+/// Room B's light: a cool lamp high near the −z wall and a warm environment from below-left.
+pub fn room_b_lighting(shadow_resolution: usize) -> Lighting {
+    let mut environment = [[0.0f32; 3]; 9];
+    environment[0] = [0.55, 0.42, 0.30];
+    environment[3] = [-0.12, -0.08, -0.04]; // Y_1,1 = −C1 x: warmer from +x
+    environment[1] = [0.06, 0.05, 0.04]; // a little brighter from below (a lit floor)
+    Lighting {
+        ambient: [0.03; 3],
+        environment: Some(environment),
+        light: Some(Light::Point {
+            position: [-0.4, 2.2, -2.3],
+            color: [2.6, 3.2, 4.4],
         }),
         shadow_resolution: Some(shadow_resolution),
     }
@@ -256,7 +289,13 @@ impl IllumDataConfig {
             ..SceneConfig::new(Preset::Monocular, self.seed)
         }
         .build(device);
-        scene.lighting = training_lighting(self.shadow_resolution);
+        match self.room {
+            Room::A => scene.lighting = training_lighting(self.shadow_resolution),
+            Room::B => {
+                scene.environment = environment::room(self.seed ^ 0x0B0B, 6.5, 2.8);
+                scene.lighting = room_b_lighting(self.shadow_resolution);
+            }
+        }
         let held_out = |t: usize| t % self.test_every == self.test_every - 1;
 
         let frames: Vec<IllumFrame> = (0..scene.frame_count)
