@@ -1,7 +1,7 @@
 //! F_vis (Eq. 3): its input layout, the stable cross-entropy against its f64 formula at
-//! extreme logits, ray-cast labels on the built-in body (open along the outward normal on the
-//! chest, blocked between the legs), and a small network learning the labels of one pose well
-//! beyond the majority rate on fresh pairs.
+//! extreme logits, ray-cast labels on the built-in body (open straight ahead of its most
+//! forward point, blocked between the legs, changed by raising an arm), and a small network
+//! learning the labels of one pose well beyond the majority rate on fresh pairs.
 
 use crate::{Rng, fresh_seed, values};
 use burn::module::Module;
@@ -175,5 +175,103 @@ fn a_small_visibility_net_learns_one_pose_beyond_the_majority_rate() {
     assert!(
         accuracy > majority + 0.03,
         "seed {seed}: accuracy {accuracy} vs majority {majority}"
+    );
+}
+
+/// The built-in body with its left arm turned by `angle` about the forward axis at the
+/// shoulder: posed vertices, vertex normals and the left wrist's height.
+fn left_arm_turned(angle: f32) -> (Vec<[f64; 3]>, Vec<[f64; 3]>, f64) {
+    use splatzoo_models::body::lbs::pose;
+    use splatzoo_models::body::{BodyTensors, PoseInput};
+    let device = Device::flex();
+    let model = &builtin_body().model;
+    let joints = model.joint_count();
+    let shoulder = model
+        .joint_names
+        .iter()
+        .position(|n| n == "left_shoulder")
+        .unwrap();
+    let wrist = model
+        .joint_names
+        .iter()
+        .position(|n| n == "left_wrist")
+        .unwrap();
+    let mut axis_angle = vec![0.0f32; 3 * joints];
+    axis_angle[3 * shoulder + 2] = angle;
+    let posed = pose(
+        &BodyTensors::new(model, &device),
+        &PoseInput::from_axis_angle(
+            Tensor::<2>::zeros([1, model.shape_count()], &device),
+            Tensor::<2>::from_data(TensorData::new(axis_angle, [1, 3 * joints]), &device),
+            Tensor::<2>::zeros([1, 3], &device),
+        ),
+    );
+    let rows = |t: Vec<f32>| -> Vec<[f64; 3]> {
+        t.chunks(3)
+            .map(|p| [p[0], p[1], p[2]].map(f64::from))
+            .collect()
+    };
+    let vertices = rows(values(posed.vertices));
+    let wrist_y = f64::from(values(posed.joints)[3 * wrist + 1]);
+    let normals = vertex_normals_reference(&vertices, &model.faces);
+    (vertices, normals, wrist_y)
+}
+
+/// Spec check 7: lowering the arm along the torso blocks the light reaching the torso's side
+/// from that side; raising it overhead opens it again.
+#[test]
+fn raising_an_arm_opens_the_light_under_it() {
+    // Whichever turn lowers the wrist lowers the arm.
+    let (_, _, wrist_plus) = left_arm_turned(1.3);
+    let (_, _, wrist_minus) = left_arm_turned(-1.3);
+    let (down, up) = if wrist_plus < wrist_minus {
+        (1.3, -1.3)
+    } else {
+        (-1.3, 1.3)
+    };
+    let model = &builtin_body().model;
+    let faces: Vec<[u32; 3]> = model.faces.chunks(3).map(|f| [f[0], f[1], f[2]]).collect();
+    let rest: Vec<[f64; 3]> = model
+        .template
+        .chunks(3)
+        .map(|p| [p[0], p[1], p[2]].map(f64::from))
+        .collect();
+    let shoulder_y = {
+        let s = model
+            .joint_names
+            .iter()
+            .position(|n| n == "left_shoulder")
+            .unwrap();
+        let v = rest.len();
+        (0..v)
+            .map(|i| f64::from(model.joint_regressor[s * v + i]) * rest[i][1])
+            .sum::<f64>()
+    };
+    let blocked_fraction = |angle: f32| {
+        let (vertices, normals, _) = left_arm_turned(angle);
+        let bvh = TriangleBvh::new(&vertices, &faces);
+        // Torso vertices on the left flank below the armpit, facing +x.
+        let flank: Vec<usize> = (0..vertices.len())
+            .filter(|&i| {
+                let (p, n) = (rest[i], normals[i]);
+                p[0] > 0.05
+                    && p[0] < 0.2
+                    && p[1] < shoulder_y - 0.12
+                    && p[1] > shoulder_y - 0.4
+                    && n[0] > 0.6
+            })
+            .collect();
+        assert!(flank.len() > 10, "only {} flank vertices", flank.len());
+        let origins: Vec<[f64; 3]> = flank.iter().map(|&i| vertices[i]).collect();
+        let ns: Vec<[f64; 3]> = flank.iter().map(|&i| normals[i]).collect();
+        let sideways = vec![[1.0, 0.0, 0.0]; flank.len()];
+        let open = raycast_visibility(&bvh, &origins, &ns, &sideways, 1.7e-3);
+        1.0 - open.iter().sum::<f32>() / open.len() as f32
+    };
+    let (lowered, raised) = (blocked_fraction(down), blocked_fraction(up));
+    println!("blocked: arm down {lowered}, raised {raised}");
+    assert!(
+        lowered > raised + 0.3,
+        "blocked with the arm down {lowered}, raised {raised}"
     );
 }
