@@ -24,7 +24,8 @@
 //! | Eq. 12 | ao smoothness over scene neighbours | [`smoothness::shadow_smoothness`] |
 //! | Eq. 13 | probe smoothness over grid face-neighbours | [`light_volume::LightVolume::probe_smoothness`] |
 //!
-//! Stage 1's objective (L_human of Eq. 10, L_mesh, L_scale) is [`stage1::stage1_terms`]; the
+//! Stage 1's objective (L_human of Eq. 10, L_mesh, L_scale) is [`stage1::stage1_terms`];
+//! stage 2 starts from it with [`stage2::PbrHuman::from_stage1`]; the
 //! joint Eq. 10, 14 and 15 and the two training schedules come with the trainer; the crate's `README.md` lists what is built so far and every choice the
 //! paper leaves open.
 
@@ -41,6 +42,7 @@ pub mod sampling;
 pub mod shadow;
 pub mod smoothness;
 pub mod stage1;
+pub mod stage2;
 pub mod visibility;
 
 pub use error::IllumError;

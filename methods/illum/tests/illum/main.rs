@@ -16,6 +16,7 @@ mod shading;
 mod shadow;
 mod smoothness;
 mod stage1;
+mod stage2;
 mod visibility;
 
 use burn::tensor::Tensor;
