@@ -3,6 +3,7 @@
 //! volume's interpolation, the shadow decoder's occlusion, the smoothness terms, F_vis and its
 //! ray-cast labels, stage 1's refined body, stage 2's lighting pipeline and the joint render.
 
+mod backends;
 mod brdf;
 mod data;
 mod extremes;
