@@ -61,10 +61,6 @@ pub struct JointMaps {
     pub render: Render,
 }
 
-fn camera_centre(settings: &RasterSettings) -> [f32; 3] {
-    settings.camera.position()
-}
-
 /// Renders `scene` and/or `human` with `settings`' camera over the RGB `background`.
 pub fn render_joint(
     scene: Option<SceneLayer>,
@@ -78,7 +74,7 @@ pub fn render_joint(
         let s = scene.splats;
         let m = s.len();
         let d = s.means.device();
-        let centre = Tensor::<2>::from_floats([camera_centre(settings)], &d);
+        let centre = Tensor::<2>::from_floats([settings.camera.position()], &d);
         let directions = s.means.clone() - centre;
         let length = (directions.clone().powi_scalar(2).sum_dim(1) + 1e-20).sqrt();
         let rgb = sh_colour(s.colors.clone(), directions / length, scene.degree);

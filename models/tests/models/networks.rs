@@ -4,35 +4,15 @@
 //! the fused pyramid against an f64 implementation of its own, and the upsampling.
 #![allow(clippy::needless_range_loop)] // the f64 references mirror the definitions index by index
 
+use crate::common::{SplitMix, fresh_seed};
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::networks::fpn::{ResNetFpn, Upsample, upsample};
 use splatzoo_models::networks::resnet::{Depth, ResNet, imagenet_normalise};
 use splatzoo_models::networks::weights::{WeightFile, module_tensors, write_safetensors};
 use std::collections::BTreeMap;
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// Named tensors: shape and values.
 type Named = BTreeMap<String, (Vec<usize>, Vec<f32>)>;
-
-/// A seed from the clock, printed so that a failure can be replayed.
-fn fresh_seed() -> u64 {
-    let seed = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_nanos() as u64;
-    println!("seed {seed}");
-    seed
-}
 
 fn host(t: Tensor<4>) -> Vec<f32> {
     t.into_data()
@@ -42,8 +22,8 @@ fn host(t: Tensor<4>) -> Vec<f32> {
 }
 
 /// A random `[1, 3, h, w]` image in [0, 1], with its values in f64.
-fn random_image(rng: &mut Rng, h: usize, w: usize, device: &Device) -> (Vec<f64>, Tensor<4>) {
-    let pixels: Vec<f64> = (0..3 * h * w).map(|_| rng.next()).collect();
+fn random_image(rng: &mut SplitMix, h: usize, w: usize, device: &Device) -> (Vec<f64>, Tensor<4>) {
+    let pixels: Vec<f64> = (0..3 * h * w).map(|_| rng.unit()).collect();
     let input = Tensor::<4>::from_data(
         TensorData::new(
             pixels.iter().map(|&v| v as f32).collect::<Vec<_>>(),
@@ -81,14 +61,14 @@ fn every_depth_gives_four_stages_and_the_pyramid_one_map() {
 /// Random tensors under torchvision names.
 struct Fixture<'a> {
     tensors: BTreeMap<String, (Vec<usize>, Vec<f32>)>,
-    rng: &'a mut Rng,
+    rng: &'a mut SplitMix,
 }
 
 impl Fixture<'_> {
     fn put(&mut self, name: String, shape: Vec<usize>, scale: f64, offset: f64) {
         let n = shape.iter().product();
         let v = (0..n)
-            .map(|_| (offset + scale * (self.rng.next() - 0.5)) as f32)
+            .map(|_| (offset + scale * (self.rng.unit() - 0.5)) as f32)
             .collect();
         self.tensors.insert(name, (shape, v));
     }
@@ -118,7 +98,7 @@ impl Fixture<'_> {
 }
 
 /// torchvision ResNet-18 tensors, random, with its classifier.
-fn resnet18_file(rng: &mut Rng) -> BTreeMap<String, (Vec<usize>, Vec<f32>)> {
+fn resnet18_file(rng: &mut SplitMix) -> BTreeMap<String, (Vec<usize>, Vec<f32>)> {
     resnet_file(rng, [2, 2, 2, 2], false, 1.0)
 }
 
@@ -127,7 +107,7 @@ fn resnet18_file(rng: &mut Rng) -> BTreeMap<String, (Vec<usize>, Vec<f32>)> {
 /// convolution and batch norm where the stride or the channel count changes. The scales of each
 /// block's last batch norm lie around `last_gamma` (below 1 keeps deep nets' activations
 /// moderate).
-fn resnet_file(rng: &mut Rng, blocks: [usize; 4], bottleneck: bool, last_gamma: f64) -> Named {
+fn resnet_file(rng: &mut SplitMix, blocks: [usize; 4], bottleneck: bool, last_gamma: f64) -> Named {
     let mut f = Fixture {
         tensors: BTreeMap::new(),
         rng,
@@ -407,7 +387,7 @@ fn fpn_ref(c: &[Map], t: &Named, bilinear: bool) -> Map {
 fn torchvision_resnet18_weights_load_and_match_the_f64_definition() {
     let device = Device::flex();
     let dir = tempfile::tempdir().unwrap();
-    let mut rng = Rng(7);
+    let mut rng = SplitMix(7);
     let tensors = resnet18_file(&mut rng);
     let path = dir.path().join("resnet18.safetensors");
     write_safetensors(&path, &tensors).unwrap();
@@ -506,7 +486,7 @@ fn check_resnet(depth: Depth, blocks: [usize; 4], bottleneck: bool, (h, w): (usi
     let device = Device::flex();
     let dir = tempfile::tempdir().unwrap();
     let seed = fresh_seed();
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix(seed);
     let tensors = resnet_file(&mut rng, blocks, bottleneck, 0.5);
     let path = dir.path().join("resnet.safetensors");
     write_safetensors(&path, &tensors).unwrap();
@@ -547,7 +527,7 @@ fn the_fused_pyramid_matches_its_f64_definition() {
     let device = Device::flex();
     let dir = tempfile::tempdir().unwrap();
     let seed = fresh_seed();
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix(seed);
     let tensors = resnet18_file(&mut rng);
     let path = dir.path().join("resnet18.safetensors");
     write_safetensors(&path, &tensors).unwrap();
