@@ -37,7 +37,8 @@ use splatzoo_train::views::InitPoints;
 use splatzoo_train::views::init_points::back_project;
 
 /// Which room the person is filmed in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Room {
     /// The `monocular` preset's room under [`training_lighting`].
     #[default]
@@ -47,7 +48,8 @@ pub enum Room {
 }
 
 /// The capture's size and split.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct IllumDataConfig {
     pub seed: u64,
     pub room: Room,
@@ -85,7 +87,8 @@ impl Default for IllumDataConfig {
 }
 
 impl IllumDataConfig {
-    fn validate(&self) -> Result<(), IllumError> {
+    /// Checks every size before anything is rendered.
+    pub fn validate(&self) -> Result<(), IllumError> {
         let bad =
             |field: &str, problem: &str| Err(IllumError::input(format!("data.{field}"), problem));
         if self.width < 8 || self.height < 8 {

@@ -23,3 +23,13 @@ impl IllumError {
         }
     }
 }
+
+impl From<IllumError> for TrainError {
+    fn from(e: IllumError) -> Self {
+        match e {
+            IllumError::Train(e) => e,
+            IllumError::Raster(e) => TrainError::Raster(e),
+            other => TrainError::Method(Box::new(other)),
+        }
+    }
+}

@@ -26,7 +26,8 @@ use splatzoo_models::rotation::matrix_to_quaternion;
 use splatzoo_rasterizer::Splats;
 
 /// Stage 1's shape.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct Stage1Config {
     /// Midpoint subdivisions of the body mesh (each ×4 faces).
     pub subdivisions: usize,

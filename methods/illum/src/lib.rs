@@ -30,11 +30,15 @@
 //! paper leaves open.
 
 pub mod brdf;
+pub mod config;
 pub mod data;
 mod error;
+pub mod eval;
+pub mod export;
 pub mod human;
 pub mod light_volume;
 pub mod lighting;
+pub mod method;
 pub mod onnx;
 pub mod pbr;
 pub mod render;
@@ -43,6 +47,8 @@ pub mod shadow;
 pub mod smoothness;
 pub mod stage1;
 pub mod stage2;
+pub mod steps;
+pub mod trainer;
 pub mod visibility;
 
 pub use error::IllumError;

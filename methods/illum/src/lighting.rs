@@ -81,7 +81,8 @@ impl KnnTransfer {
 }
 
 /// Monte-Carlo sampling of Eq. 7.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SamplingConfig {
     /// `N_l`: directions per Gaussian (spec: 32 in training, 64 in evaluation).
     pub count: usize,

@@ -25,7 +25,8 @@ pub const GOLDEN_ANGLE: f64 = 2.399_963_229_728_653;
 pub const R3DG_MIN_ELEVATION_DEG: f64 = 10.0;
 
 /// How the cosines `z_j` of the samples to the normal are spaced.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum HemisphereRule {
     /// `z_j = 1 − (j + ½)/N`: equal solid angle per sample, unbiased (our default).
     #[default]

@@ -19,11 +19,12 @@ use burn::tensor::activation::relu;
 use splatzoo_models::body::Posed;
 use splatzoo_models::laplacian::UniformLaplacian;
 use splatzoo_models::networks::hash_grid::HashQueries;
-use splatzoo_rasterizer::{ColorMode, RasterSettings, Render, rasterize};
+use splatzoo_rasterizer::{ColorMode, RasterSettings, Render, Splats, rasterize};
 use splatzoo_train::loss::photometric;
 
 /// Stage 1's loss weights.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct Stage1Weights {
     /// λ of the D-SSIM term within the image loss.
     pub ssim: f64,
@@ -62,6 +63,8 @@ pub struct Stage1Terms {
     pub scale: Tensor<1>,
     pub total: Tensor<1>,
     pub render: Render,
+    /// The posed face Gaussians rendered (the joint render of the trainer reuses them).
+    pub splats: Splats,
 }
 
 /// Stage 1's loss for one view of the body posed as `posed` (a batch of one, from the
@@ -100,7 +103,7 @@ pub fn stage1_terms(
     let target = view.image * mask.clone() + background.reshape([1, 1, 3]) * (mask.neg() + 1.0);
     let image = photometric(render.color.clone(), target, weights.ssim);
     let mesh_term = laplacian.energy(refined);
-    let largest = splats.log_scales.exp().max_dim(1);
+    let largest = splats.log_scales.clone().exp().max_dim(1);
     let scale = relu(largest - weights.max_scale * mesh.height).mean();
     let total = image.clone() + mesh_term.clone() * weights.mesh + scale.clone() * weights.scale;
     Ok(Stage1Terms {
@@ -109,5 +112,6 @@ pub fn stage1_terms(
         scale,
         total,
         render,
+        splats,
     })
 }

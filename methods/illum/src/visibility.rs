@@ -21,7 +21,8 @@ use splatzoo_models::networks::mlp::{SkipMlp, head};
 use splatzoo_models::raycast::TriangleBvh;
 
 /// Where `V(ω_i, x)` comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum VisibilitySource {
     /// The paper's F_vis.
     Net,
@@ -33,7 +34,8 @@ pub enum VisibilitySource {
 
 /// F_vis's shape. RelightableAvatar's: position code of 10 frequencies, direction code of 4,
 /// 4 × 256 ReLU layers.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct VisibilityConfig {
     pub position_levels: usize,
     pub direction_levels: usize,

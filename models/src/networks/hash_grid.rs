@@ -26,7 +26,8 @@ use rand::{Rng, SeedableRng};
 pub const HASH_PRIMES: [u32; 3] = [1, 2_654_435_761, 805_459_861];
 
 /// The shape of a hash encoding; every field trades speed and memory for detail.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct HashGridConfig {
     /// `L`: number of resolution levels.
     pub levels: usize,

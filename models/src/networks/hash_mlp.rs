@@ -12,7 +12,8 @@ use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor, TensorData};
 
 /// The shape of a [`HashMlp`]: its encoder and `hidden` ReLU layers of `width`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct HashMlpConfig {
     pub grid: HashGridConfig,
     pub hidden: usize,

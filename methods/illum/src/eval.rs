@@ -1,0 +1,399 @@
+//! Held-out scores (spec §5, HUGS' protocol the paper follows) and the renders behind them.
+//!
+//! - **Full image** and **human crop** (the person's mask bounding box in both images) PSNR,
+//!   SSIM and LPIPS (LPIPS with user weights only) on the held-out frames.
+//! - **Albedo**: PSNR of the rendered albedo map against the renderer's albedo buffer on the
+//!   person's pixels, after the per-channel least-squares scale (albedo and light share a
+//!   scale no image can fix).
+//! - **Relit**: the held-out frames under the capture's other lights; each probe is set to
+//!   the analytic SH of the new light at its position times the per-channel gain the learned
+//!   probes have against the training light's analytic SH (the same ambiguity), and the
+//!   human crop is scored (the scene stays baked, as in the paper's application). A model
+//!   without the light volume renders its fixed colours: the baseline relighting must beat.
+//! - **Shadow region**: pixels the person does not cover whose true colour the person's cast
+//!   shadow darkens by more than 15 % (`IllumFrame::shadow_ratio`); mean absolute sRGB error
+//!   there, with the decoder's `ao` and with `ao ≡ 1`.
+//! - **Novel poses**: the novel-pose clip (the same identity turning and waving) from its
+//!   fixed camera, full image.
+//! - **Probes**: the relative RMS error of the gain-corrected learned probe SH against the
+//!   analytic SH of the training light.
+
+use crate::IllumError;
+use crate::data::{IllumFrame, relighting};
+use crate::human::pose_refined;
+use crate::light_volume::LightVolume;
+use crate::render::{HumanLayer, JointMaps, SceneLayer, render_joint};
+use crate::steps::Nets;
+use crate::trainer::{FramePose, IllumTrainer};
+use burn::module::{Module, Param};
+use burn::tensor::{Tensor, TensorData};
+use serde::{Deserialize, Serialize};
+use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Splats};
+use splatzoo_train::host_f32;
+use splatzoo_train::loss::{psnr, scalar, ssim};
+use splatzoo_train::lpips::Lpips;
+use splatzoo_train::scene::{FrameContext, FrameQuery, SceneNode};
+
+/// Pixels whose true shadow ratio is below this count as the cast-shadow region.
+pub const SHADOW_RATIO: f32 = 0.85;
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct IllumScores {
+    pub frames: usize,
+    pub psnr: f64,
+    pub ssim: f64,
+    pub lpips: Option<f64>,
+    pub human_psnr: f64,
+    pub human_ssim: f64,
+    pub human_lpips: Option<f64>,
+    /// Stage 2 with the light volume only.
+    pub albedo_psnr: Option<f64>,
+    /// Mean human-crop PSNR over the relit frames, and per light.
+    pub relit_human_psnr: f64,
+    pub relit: Vec<(String, f64)>,
+    pub shadow_pixels: usize,
+    pub shadow_error: f64,
+    /// The same with `ao ≡ 1` (only with the decoder).
+    pub shadow_error_without_ao: Option<f64>,
+    pub novel_pose_psnr: f64,
+    pub probe_relative_error: Option<f64>,
+}
+
+fn untracked(s: Splats) -> Splats {
+    Splats {
+        means: s.means.autodiff(),
+        quats: s.quats.autodiff(),
+        log_scales: s.log_scales.autodiff(),
+        opacity_logits: s.opacity_logits.autodiff(),
+        colors: s.colors.autodiff(),
+    }
+}
+
+/// The person's mask bounding box `(rows, cols)`, `None` when the mask is empty.
+fn person_box(frame: &IllumFrame) -> Option<(std::ops::Range<usize>, std::ops::Range<usize>)> {
+    let [h, w, _] = frame.image.dims();
+    let (mut r0, mut r1, mut c0, mut c1) = (h, 0, w, 0);
+    for (i, &p) in frame.person.iter().enumerate() {
+        if p {
+            let (r, c) = (i / w, i % w);
+            r0 = r0.min(r);
+            r1 = r1.max(r + 1);
+            c0 = c0.min(c);
+            c1 = c1.max(c + 1);
+        }
+    }
+    (r1 > r0 && c1 > c0).then_some((r0..r1, c0..c1))
+}
+
+/// Per-channel least-squares gains `g` minimising `Σ (g_c x − y)²` over pairs.
+fn channel_gains(pairs: &[([f64; 3], [f64; 3])]) -> [f64; 3] {
+    [0, 1, 2].map(|c| {
+        let (xy, xx) = pairs.iter().fold((0.0, 0.0), |(xy, xx), (x, y)| {
+            (xy + x[c] * y[c], xx + x[c] * x[c])
+        });
+        if xx > 1e-20 { xy / xx } else { 1.0 }
+    })
+}
+
+impl IllumTrainer {
+    /// Gradient-free copies of the networks (evaluation records no graph).
+    fn frozen(
+        &self,
+    ) -> (
+        LightVolume,
+        crate::shadow::ShadowDecoder,
+        Option<splatzoo_models::networks::hash_mlp::HashMlp>,
+    ) {
+        (
+            self.volume.clone().no_grad(),
+            self.decoder.clone().no_grad(),
+            self.stage2.as_ref().map(|s| s.materials.clone().no_grad()),
+        )
+    }
+
+    /// The scene and the human of `pose` from `camera`, without gradients.
+    pub fn render_view(
+        &self,
+        nets: Nets,
+        camera: &Camera,
+        pose: &FramePose,
+        with_ao: bool,
+    ) -> Result<JointMaps, IllumError> {
+        let settings = RasterSettings::new(*camera, ColorMode::Features);
+        let query = FrameQuery {
+            camera,
+            frame: 0,
+            time: 0.0,
+        };
+        let context = FrameContext { outputs: &[] };
+        let scene = untracked(self.scene.render(&query, &context).splats);
+        let (human, channels) = match &self.stage2 {
+            Some(stage2) => {
+                let canonical = untracked(stage2.human.render(&query, &context).splats);
+                self.stage2_human(nets, &canonical, pose, camera, false, 0)
+            }
+            None => {
+                let body = self.body.clone().no_grad();
+                let v = self.mesh.vertex_count();
+                let offsets = body.offsets(&self.body_queries);
+                let placed = pose_refined(&pose.posed, offsets).reshape([v, 3]);
+                let splats =
+                    body.face_splats(&self.mesh, placed, body.vertex_colours(&self.body_queries));
+                let f = splats.len();
+                let zeros = |c: usize| Tensor::<2>::zeros([f, c], &self.autodiff);
+                let colour = splats.colors.clone().reshape([f, 3]);
+                (splats, [colour, zeros(2), zeros(3), zeros(3)])
+            }
+        };
+        let human_points: Vec<[f64; 3]> = host_f32(&human.means)
+            .chunks(3)
+            .map(|p| [p[0], p[1], p[2]].map(f64::from))
+            .collect();
+        let ao = if with_ao {
+            self.scene_ao(nets, &scene.means, &human_points)?.0
+        } else {
+            None
+        };
+        let [colour, material, albedo, normals] = channels;
+        render_joint(
+            Some(SceneLayer {
+                splats: &scene,
+                degree: self.scene_degree(self.step),
+                ao,
+            }),
+            Some(HumanLayer {
+                splats: &human,
+                colour,
+                material,
+                albedo,
+                normals,
+            }),
+            &settings,
+            self.capture.background,
+        )
+    }
+
+    /// The learned probes' per-channel gain against the analytic SH of the training light.
+    pub fn probe_gain(&self) -> [f64; 3] {
+        let grid = *self.volume.grid();
+        let sh = host_f32(&self.volume.sh.val());
+        let k = sh.len() / (3 * grid.count());
+        let pairs: Vec<([f64; 3], [f64; 3])> = (0..grid.count())
+            .flat_map(|p| {
+                let truth = self.capture.probe_truth(grid.position(p));
+                let sh = &sh;
+                (0..k.min(9)).map(move |j| {
+                    let learned = [0, 1, 2].map(|c| f64::from(sh[(p * k + j) * 3 + c]));
+                    (truth[j], learned)
+                })
+            })
+            .collect();
+        channel_gains(&pairs)
+    }
+
+    /// Relative RMS error of `gain × truth` against the learned probes.
+    fn probe_error(&self, gain: [f64; 3]) -> f64 {
+        let grid = *self.volume.grid();
+        let sh = host_f32(&self.volume.sh.val());
+        let k = sh.len() / (3 * grid.count());
+        let (mut err, mut norm) = (0.0, 0.0);
+        for p in 0..grid.count() {
+            let truth = self.capture.probe_truth(grid.position(p));
+            for j in 0..k {
+                for c in 0..3 {
+                    let t = if j < 9 { gain[c] * truth[j][c] } else { 0.0 };
+                    err += (f64::from(sh[(p * k + j) * 3 + c]) - t).powi(2);
+                    norm += t * t;
+                }
+            }
+        }
+        (err / norm.max(1e-20)).sqrt()
+    }
+
+    /// A copy of the volume whose probes hold `gain ×` the analytic SH of `lighting`.
+    fn relit_volume(
+        &self,
+        volume: &LightVolume,
+        lighting: &splatzoo_datasets::render::Lighting,
+        gain: [f64; 3],
+    ) -> LightVolume {
+        let grid = *volume.grid();
+        let [p, k, _] = volume.sh.val().dims();
+        let mut values = vec![0.0f32; p * k * 3];
+        for i in 0..p {
+            let truth = lighting.radiance_sh(grid.position(i));
+            for j in 0..k.min(9) {
+                for c in 0..3 {
+                    values[(i * k + j) * 3 + c] = (gain[c] * truth[j][c]) as f32;
+                }
+            }
+        }
+        let mut relit = volume.clone();
+        relit.sh = Param::from_tensor(Tensor::from_data(
+            TensorData::new(values, [p, k, 3]),
+            &self.autodiff,
+        ));
+        relit
+    }
+
+    /// Every score of the module docs; `lpips` when the user gave its weights.
+    pub fn evaluate(&self, lpips: Option<&Lpips>) -> Result<IllumScores, IllumError> {
+        let (volume, decoder, materials) = self.frozen();
+        let nets = Nets {
+            volume: &volume,
+            decoder: &decoder,
+            materials: materials.as_ref(),
+        };
+        let stride = self.config.eval_stride;
+        let tests: Vec<&IllumFrame> = self.capture.test_frames().step_by(stride).collect();
+        let mut scores = IllumScores {
+            frames: tests.len(),
+            ..IllumScores::default()
+        };
+        let pbr = self.stage2.is_some() && self.config.ablation.light_volume;
+        let mut lp = (0.0, 0.0);
+        let mut albedo_pairs = Vec::new();
+        let mut albedo_frames = Vec::new();
+        let (mut shadow_sum, mut shadow_open_sum) = (0.0, 0.0);
+        for frame in &tests {
+            let pose = self.frame_pose(frame.frame, true);
+            let maps = self.render_view(nets, &frame.camera, &pose, true)?;
+            let image = frame.image.clone().autodiff();
+            scores.psnr += psnr(maps.colour.clone(), image.clone());
+            scores.ssim += scalar(ssim(maps.colour.clone(), image.clone()));
+            if let Some(l) = lpips {
+                lp.0 += scalar(l.distance(maps.colour.clone().inner(), frame.image.clone()));
+            }
+            if let Some((rows, cols)) = person_box(frame) {
+                let crop = |t: Tensor<3>| t.slice([rows.clone(), cols.clone(), 0..3]);
+                scores.human_psnr += psnr(crop(maps.colour.clone()), crop(image.clone()));
+                scores.human_ssim += scalar(ssim(crop(maps.colour.clone()), crop(image.clone())));
+                if let Some(l) = lpips {
+                    lp.1 += scalar(
+                        l.distance(crop(maps.colour.clone()).inner(), crop(frame.image.clone())),
+                    );
+                }
+            }
+            let rendered = host_f32(&maps.colour);
+            let truth = host_f32(&frame.image);
+            let ratio = frame.shadow_ratio();
+            let shadowed: Vec<usize> = (0..ratio.len())
+                .filter(|&i| ratio[i].is_some_and(|r| r < SHADOW_RATIO))
+                .collect();
+            let error = |values: &[f32]| -> f64 {
+                shadowed
+                    .iter()
+                    .flat_map(|&i| (0..3).map(move |c| 3 * i + c))
+                    .map(|j| f64::from((values[j] - truth[j]).abs()))
+                    .sum::<f64>()
+            };
+            scores.shadow_pixels += shadowed.len();
+            shadow_sum += error(&rendered);
+            if self.config.ablation.shadow {
+                let open = self.render_view(nets, &frame.camera, &pose, false)?;
+                shadow_open_sum += error(&host_f32(&open.colour));
+            }
+            if pbr {
+                let albedo = host_f32(&maps.albedo);
+                let alpha = host_f32(&maps.human_alpha);
+                let start = albedo_pairs.len();
+                for (i, &person) in frame.person.iter().enumerate() {
+                    if person && alpha[i] > 0.5 {
+                        let x = [0, 1, 2].map(|c| f64::from(albedo[3 * i + c]));
+                        let y = frame.albedo[i].map(f64::from);
+                        albedo_pairs.push((x, y));
+                    }
+                }
+                albedo_frames.push(start..albedo_pairs.len());
+            }
+        }
+        let n = tests.len().max(1) as f64;
+        scores.psnr /= n;
+        scores.ssim /= n;
+        scores.human_psnr /= n;
+        scores.human_ssim /= n;
+        if lpips.is_some() {
+            scores.lpips = Some(lp.0 / n);
+            scores.human_lpips = Some(lp.1 / n);
+        }
+        let pixels = (3 * scores.shadow_pixels).max(1) as f64;
+        scores.shadow_error = shadow_sum / pixels;
+        if self.config.ablation.shadow {
+            scores.shadow_error_without_ao = Some(shadow_open_sum / pixels);
+        }
+        if pbr && !albedo_pairs.is_empty() {
+            let gain = channel_gains(&albedo_pairs);
+            let mse = albedo_pairs
+                .iter()
+                .map(|(x, y)| (0..3).map(|c| (gain[c] * x[c] - y[c]).powi(2)).sum::<f64>())
+                .sum::<f64>()
+                / (3 * albedo_pairs.len()) as f64;
+            scores.albedo_psnr = Some(-10.0 * mse.max(1e-20).log10());
+        }
+        self.relit_scores(nets, &mut scores)?;
+        self.novel_pose_scores(nets, &mut scores)?;
+        if pbr {
+            scores.probe_relative_error = Some(self.probe_error(self.probe_gain()));
+        }
+        Ok(scores)
+    }
+
+    fn relit_scores(&self, nets: Nets, scores: &mut IllumScores) -> Result<(), IllumError> {
+        let gain = self.probe_gain();
+        let lights = relighting(self.config.data.shadow_resolution);
+        let mut all = (0.0, 0usize);
+        for (name, lighting) in &lights {
+            let relit = self.relit_volume(nets.volume, lighting, gain);
+            let relit_nets = Nets {
+                volume: &relit,
+                ..nets
+            };
+            let frames: Vec<_> = self
+                .capture
+                .relit
+                .iter()
+                .filter(|r| r.light == *name)
+                .step_by(self.config.eval_stride)
+                .collect();
+            let mut sum = (0.0, 0usize);
+            for relit_frame in frames {
+                let frame = &relit_frame.frame;
+                let Some((rows, cols)) = person_box(frame) else {
+                    continue;
+                };
+                let pose = self.frame_pose(frame.frame, true);
+                let maps = self.render_view(relit_nets, &frame.camera, &pose, true)?;
+                let crop = |t: Tensor<3>| t.slice([rows.clone(), cols.clone(), 0..3]);
+                sum.0 += psnr(crop(maps.colour), crop(frame.image.clone().autodiff()));
+                sum.1 += 1;
+            }
+            if sum.1 > 0 {
+                scores
+                    .relit
+                    .push(((*name).to_owned(), sum.0 / sum.1 as f64));
+                all.0 += sum.0;
+                all.1 += sum.1;
+            }
+        }
+        scores.relit_human_psnr = all.0 / all.1.max(1) as f64;
+        Ok(())
+    }
+
+    fn novel_pose_scores(&self, nets: Nets, scores: &mut IllumScores) -> Result<(), IllumError> {
+        let track = &self.capture.novel_person.motion;
+        let mut sum = (0.0, 0usize);
+        for frame in self
+            .capture
+            .novel_pose
+            .iter()
+            .step_by(self.config.eval_stride)
+        {
+            let pose = self.pose_of(track, frame.frame, true);
+            let maps = self.render_view(nets, &frame.camera, &pose, true)?;
+            sum.0 += psnr(maps.colour, frame.image.clone().autodiff());
+            sum.1 += 1;
+        }
+        scores.novel_pose_psnr = sum.0 / sum.1.max(1) as f64;
+        Ok(())
+    }
+}

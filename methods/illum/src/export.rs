@@ -1,0 +1,183 @@
+//! What a finished `train-illum` run writes beside its checkpoint:
+//!
+//! - `scene.ply` (INRIA layout, the scene's SH) and `human_canonical.ply` (the stage-2
+//!   human in canonical space, its colour slot written as the DC colour: linear albedo with
+//!   the light volume, the display colour without);
+//! - `posed_frame_<t>.ply`: scene and human together at the first held-out frame, the human's
+//!   shaded colour baked into its DC;
+//! - `renders/test_<t>.png`: render | truth | albedo | scene occlusion for each scored
+//!   held-out frame, and `test.gif` of the renders;
+//! - `onnx/`: F_vis, F_ao and F_m's network with test vectors, checked in tract.
+
+use crate::IllumError;
+use crate::onnx::{IllumNetworks, export};
+use crate::trainer::IllumTrainer;
+use burn::module::Module;
+use burn::tensor::Tensor;
+use splatzoo_datasets::DatasetError;
+use splatzoo_rasterizer::Splats;
+use splatzoo_rasterizer::sh::SH_C0;
+use splatzoo_train::TrainError;
+use splatzoo_train::gaussians::{GaussianSet, SH_REST};
+use splatzoo_train::harness::Say;
+use splatzoo_train::images::{side_by_side, srgb_image, write_gif, write_png};
+use splatzoo_train::ply::write_ply;
+use splatzoo_train::scene::concatenate;
+use std::path::Path;
+
+/// Rows per ONNX test vector.
+const ONNX_ROWS: usize = 64;
+
+/// `[N, 3]` colours in [0, 1] as degree-3 SH with only the DC set.
+fn colour_as_sh(colour: Tensor<2>) -> Tensor<3> {
+    let n = colour.dims()[0];
+    let device = colour.device();
+    let dc = ((colour - 0.5) / SH_C0).reshape([n, 1, 3]);
+    Tensor::cat(vec![dc, Tensor::zeros([n, SH_REST, 3], &device)], 1)
+}
+
+pub fn write_outputs(
+    trainer: &IllumTrainer,
+    run: &Path,
+    say: &mut dyn Say,
+) -> Result<serde_json::Map<String, serde_json::Value>, TrainError> {
+    let mut summary = serde_json::Map::new();
+    write_ply(&run.join("scene.ply"), &trainer.scene.set)?;
+    let mut written = vec!["scene.ply".to_owned()];
+    if let Some(stage2) = &trainer.stage2 {
+        let set = &stage2.human.set;
+        let n = set.len();
+        let canonical = GaussianSet {
+            sh_dc: colour_as_sh(set.sh_dc.clone().reshape([n, 3]).clamp(0.0, 1.0)).slice([
+                0..n,
+                0..1,
+                0..3,
+            ]),
+            ..set.clone()
+        };
+        write_ply(&run.join("human_canonical.ply"), &canonical)?;
+        written.push("human_canonical.ply".into());
+    }
+
+    let renders = run.join("renders");
+    std::fs::create_dir_all(&renders)
+        .map_err(|e| DatasetError::file(&renders, format!("cannot create ({e})")))?;
+    let (volume, decoder) = (
+        trainer.volume.clone().no_grad(),
+        trainer.decoder.clone().no_grad(),
+    );
+    let materials = trainer
+        .stage2
+        .as_ref()
+        .map(|s| s.materials.clone().no_grad());
+    let nets = crate::steps::Nets {
+        volume: &volume,
+        decoder: &decoder,
+        materials: materials.as_ref(),
+    };
+    let mut frames = Vec::new();
+    for (k, frame) in trainer
+        .capture
+        .test_frames()
+        .step_by(trainer.config.eval_stride)
+        .enumerate()
+    {
+        let pose = trainer.frame_pose(frame.frame, true);
+        let maps = trainer
+            .render_view(nets, &frame.camera, &pose, true)
+            .map_err(TrainError::from)?;
+        let [h, w] = maps.ao.dims();
+        let image = srgb_image(&maps.colour.clone().inner().clamp(0.0, 1.0));
+        let albedo = srgb_image(&maps.albedo.clone().inner().clamp(0.0, 1.0));
+        let ao = srgb_image(
+            &maps
+                .ao
+                .clone()
+                .inner()
+                .reshape([h, w, 1])
+                .repeat_dim(2, 3)
+                .clamp(0.0, 1.0),
+        );
+        let row = side_by_side(&[image.clone(), srgb_image(&frame.image), albedo, ao]);
+        write_png(&renders.join(format!("test_{:04}.png", frame.frame)), &row)?;
+        frames.push(image);
+        if k == 0 {
+            // Scene and human at this frame, the human's shaded colour baked in.
+            let scene = trainer.scene.set.splats();
+            let human = match &trainer.stage2 {
+                Some(stage2) => {
+                    let canonical = stage2.human.set.splats();
+                    let canonical = Splats {
+                        means: canonical.means.autodiff(),
+                        quats: canonical.quats.autodiff(),
+                        log_scales: canonical.log_scales.autodiff(),
+                        opacity_logits: canonical.opacity_logits.autodiff(),
+                        colors: canonical.colors.autodiff(),
+                    };
+                    let (posed, [colour, ..]) =
+                        trainer.stage2_human(nets, &canonical, &pose, &frame.camera, false, 0);
+                    Splats {
+                        means: posed.means.inner(),
+                        quats: posed.quats.inner(),
+                        log_scales: posed.log_scales.inner(),
+                        opacity_logits: posed.opacity_logits.inner(),
+                        colors: colour_as_sh(colour.inner().clamp(0.0, 1.0)),
+                    }
+                }
+                None => {
+                    return Err(TrainError::from(IllumError::Input {
+                        what: "train-illum".into(),
+                        problem: "the run ended before stage 2 started".into(),
+                    }));
+                }
+            };
+            let name = format!("posed_frame_{:04}.ply", frame.frame);
+            write_ply(
+                &run.join(&name),
+                &GaussianSet::from_splats(&concatenate(vec![scene, human])),
+            )?;
+            written.push(name);
+        }
+    }
+    write_gif(&run.join("test.gif"), &frames, 5)?;
+    say.say(&format!(
+        "wrote {}, {} renders and test.gif",
+        written.join(", "),
+        frames.len()
+    ));
+
+    if let Some(stage2) = &trainer.stage2 {
+        let visibility = trainer.visibility.valid();
+        let shadow = trainer.decoder.valid();
+        let materials = stage2.materials.valid();
+        let graphs = export(
+            &IllumNetworks {
+                visibility: &visibility,
+                shadow: &shadow,
+                materials: &materials,
+            },
+            ONNX_ROWS,
+            &run.join("onnx"),
+            &trainer.device,
+        )
+        .map_err(TrainError::from)?;
+        let worst = graphs
+            .iter()
+            .map(|g| g.relative_error)
+            .fold(0.0f32, f32::max);
+        say.say(&format!(
+            "wrote onnx/ ({} graphs; tract matches Burn to {worst:.1e})",
+            graphs.len()
+        ));
+        summary.insert("onnx_relative_error".into(), f64::from(worst).into());
+    }
+    summary.insert(
+        "probes".into(),
+        serde_json::json!({
+            "dims": trainer.volume.grid().dims,
+            "spacing": trainer.volume.grid().spacing,
+            "gain": trainer.probe_gain(),
+        }),
+    );
+    Ok(summary)
+}
