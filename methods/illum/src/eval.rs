@@ -97,17 +97,17 @@ fn channel_gains(pairs: &[([f64; 3], [f64; 3])]) -> [f64; 3] {
 
 impl IllumTrainer {
     /// Gradient-free copies of the networks (evaluation records no graph).
-    fn frozen(
+    pub fn frozen(
         &self,
     ) -> (
         LightVolume,
         crate::shadow::ShadowDecoder,
-        Option<splatzoo_models::networks::hash_mlp::HashMlp>,
+        splatzoo_models::networks::hash_mlp::HashMlp,
     ) {
         (
             self.volume.clone().no_grad(),
             self.decoder.clone().no_grad(),
-            self.stage2.as_ref().map(|s| s.materials.clone().no_grad()),
+            self.materials.clone().no_grad(),
         )
     }
 
@@ -242,7 +242,7 @@ impl IllumTrainer {
         let nets = Nets {
             volume: &volume,
             decoder: &decoder,
-            materials: materials.as_ref(),
+            materials: &materials,
         };
         let stride = self.config.eval_stride;
         let tests: Vec<&IllumFrame> = self.capture.test_frames().step_by(stride).collect();

@@ -62,18 +62,11 @@ pub fn write_outputs(
     let renders = run.join("renders");
     std::fs::create_dir_all(&renders)
         .map_err(|e| DatasetError::file(&renders, format!("cannot create ({e})")))?;
-    let (volume, decoder) = (
-        trainer.volume.clone().no_grad(),
-        trainer.decoder.clone().no_grad(),
-    );
-    let materials = trainer
-        .stage2
-        .as_ref()
-        .map(|s| s.materials.clone().no_grad());
+    let (volume, decoder, materials) = trainer.frozen();
     let nets = crate::steps::Nets {
         volume: &volume,
         decoder: &decoder,
-        materials: materials.as_ref(),
+        materials: &materials,
     };
     let mut frames = Vec::new();
     for (k, frame) in trainer
@@ -146,10 +139,10 @@ pub fn write_outputs(
         frames.len()
     ));
 
-    if let Some(stage2) = &trainer.stage2 {
+    if trainer.stage2.is_some() {
         let visibility = trainer.visibility.valid();
         let shadow = trainer.decoder.valid();
-        let materials = stage2.materials.valid();
+        let materials = trainer.materials.valid();
         let graphs = export(
             &IllumNetworks {
                 visibility: &visibility,

@@ -191,6 +191,7 @@ impl Method for Illum {
         t.latent_adam = AdamState::load(c, "volume.latent", &t.volume.latent.val().inner())?;
         (t.decoder, t.decoder_adam) = load_network(c, "decoder", t.decoder.clone())?;
         (t.visibility, t.visibility_adam) = load_network(c, "visibility", t.visibility.clone())?;
+        (t.materials, t.materials_adam) = load_network(c, "materials", t.materials.clone())?;
         if c.meta("stage2").is_ok() {
             let mut stage2 = match t.stage2.take() {
                 Some(stage2) => stage2,
@@ -204,8 +205,6 @@ impl Method for Illum {
             stage2.binding.transfer.indices = load_int(c, "binding.indices", [Some(n), None], &a)?;
             stage2.binding.transfer.weights =
                 c.tensor::<2>("binding.weights", [Some(n), None], &a)?;
-            (stage2.materials, stage2.materials_adam) =
-                load_network(c, "materials", stage2.materials.clone())?;
             t.stage2 = Some(stage2);
         } else {
             t.stage2 = None;
@@ -297,6 +296,7 @@ impl Method for Illum {
         t.latent_adam.save(&mut c, "volume.latent");
         put_network(&mut c, "decoder", &t.decoder, &t.decoder_adam);
         put_network(&mut c, "visibility", &t.visibility, &t.visibility_adam);
+        put_network(&mut c, "materials", &t.materials, &t.materials_adam);
         if let Some(stage2) = &t.stage2 {
             c.put_meta("stage2", 1);
             stage2.human.save(&mut c, HUMAN);
@@ -306,12 +306,6 @@ impl Method for Illum {
                 &int_as_float(&stage2.binding.transfer.indices),
             );
             c.put("binding.weights", &stage2.binding.transfer.weights);
-            put_network(
-                &mut c,
-                "materials",
-                &stage2.materials,
-                &stage2.materials_adam,
-            );
         }
         t.order.save(&mut c);
         c

@@ -47,7 +47,7 @@ pub struct StepLosses {
 pub struct Nets<'a> {
     pub volume: &'a crate::light_volume::LightVolume,
     pub decoder: &'a crate::shadow::ShadowDecoder,
-    pub materials: Option<&'a splatzoo_models::networks::hash_mlp::HashMlp>,
+    pub materials: &'a splatzoo_models::networks::hash_mlp::HashMlp,
 }
 
 /// One training frame's targets.
@@ -74,7 +74,7 @@ impl IllumTrainer {
         Nets {
             volume: &self.volume,
             decoder: &self.decoder,
-            materials: None,
+            materials: &self.materials,
         }
     }
 
@@ -324,8 +324,7 @@ impl IllumTrainer {
             let zeros = |c: usize| Tensor::<2>::zeros([n, c], &self.autodiff);
             return (posed, [slot, zeros(2), zeros(3), normals]);
         }
-        let materials = nets.materials.unwrap_or(&stage2.materials);
-        let per_vertex = sigmoid(materials.forward_queries(&stage2.material_queries));
+        let per_vertex = sigmoid(nets.materials.forward_queries(&self.material_queries));
         let material = stage2.binding.transfer.apply(per_vertex);
         let metallic = material.clone().slice([0..n, 0..1]);
         let roughness = material.clone().slice([0..n, 1..2]);
@@ -494,17 +493,17 @@ impl IllumTrainer {
                 step: self.step,
                 progress,
             });
-            if self.config.ablation.light_volume {
-                stage2.materials = stage2.materials_adam.step(
-                    stage2.materials.clone(),
-                    &grads,
-                    self.config.stage2.materials_lr,
-                );
-            }
             stage2.human.take_lineage().is_some()
         };
         if edited {
             self.rebind();
+        }
+        if self.config.ablation.light_volume {
+            self.materials = self.materials_adam.step(
+                self.materials.clone(),
+                &grads,
+                self.config.stage2.materials_lr,
+            );
         }
         self.step_decoder(&grads);
         self.step_volume(&grads);

@@ -59,10 +59,6 @@ pub struct FramePose {
 pub struct Stage2State {
     pub human: GaussianNode,
     pub binding: Binding,
-    /// F_m on the template vertices' fixed queries.
-    pub materials: HashMlp,
-    pub material_queries: HashQueries,
-    pub materials_adam: ModuleAdam,
 }
 
 pub struct IllumTrainer {
@@ -93,6 +89,11 @@ pub struct IllumTrainer {
     pub decoder_adam: ModuleAdam,
     pub visibility: VisibilityNet,
     pub visibility_adam: ModuleAdam,
+    /// F_m on the template vertices' fixed queries (built with the other networks, so a run
+    /// resumed before the hand-over draws the same initial weights).
+    pub materials: HashMlp,
+    pub material_queries: HashQueries,
+    pub materials_adam: ModuleAdam,
     pub stage2: Option<Stage2State>,
     pub order: EpochOrder,
     pub step: usize,
@@ -174,6 +175,14 @@ impl IllumTrainer {
         );
         let body_queries = mesh.queries(&body.offset, &autodiff);
         let in_plane_adam = AdamState::new(&body.in_plane.val().inner());
+        let materials = HashMlp::new(
+            config.stage2.materials,
+            2,
+            false,
+            config.seed ^ 0x111_0006,
+            &autodiff,
+        );
+        let material_queries = mesh.queries(&materials, &autodiff);
 
         let mut trainer = Self {
             scene,
@@ -205,6 +214,9 @@ impl IllumTrainer {
                 &autodiff,
             ),
             visibility_adam: ModuleAdam::new(NETWORK_ADAM),
+            materials,
+            material_queries,
+            materials_adam: ModuleAdam::new(NETWORK_ADAM),
             stage2: None,
             order: EpochOrder::new(config.seed ^ 0x111_0003),
             step: 0,
@@ -356,20 +368,9 @@ impl IllumTrainer {
             self.mesh.height,
             self.config.seed ^ 0x111_0005,
         );
-        let materials = HashMlp::new(
-            self.config.stage2.materials,
-            2,
-            false,
-            self.config.seed ^ 0x111_0006,
-            &self.autodiff,
-        );
-        let material_queries = self.mesh.queries(&materials, &self.autodiff);
         Stage2State {
             human: node,
             binding,
-            materials,
-            material_queries,
-            materials_adam: ModuleAdam::new(NETWORK_ADAM),
         }
     }
 

@@ -18,6 +18,7 @@ mod shadow;
 mod smoothness;
 mod stage1;
 mod stage2;
+mod trainer;
 mod visibility;
 
 use burn::tensor::Tensor;
