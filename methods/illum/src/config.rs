@@ -1,7 +1,7 @@
 //! Every knob of a `train-illum` run. The paper gives no schedule, rate, weight or size; the
 //! defaults are the spec's (§4: iHuman, R3DG, RelightableAvatar and INRIA conventions)
-//! compressed to a CPU budget: stage 1 for `stage1.steps`, stage 2 for the rest of
-//! `iterations`. The Table-4 ablations are one line each: `ablation.light_volume = false`,
+//! compressed to a CPU budget (the default run takes about 23 minutes on 2 cores): stage 1
+//! for `stage1.steps`, stage 2 for the rest of `iterations`. The Table-4 ablations are one line each: `ablation.light_volume = false`,
 //! `ablation.shadow = false`, `weights.probe = 0.0`, `ablation.two_stage = false`; the
 //! skinned-avatar baseline is `ablation.light_volume = false` with `ablation.shadow = false`.
 
@@ -49,7 +49,7 @@ pub struct Stage1Schedule {
 impl Default for Stage1Schedule {
     fn default() -> Self {
         Self {
-            steps: 500,
+            steps: 400,
             // The built-in body already has SMPL's density (7000 vertices, 13 996 faces);
             // one subdivision (iHuman's) quadruples every stage-2 cost.
             body: Stage1Config {
@@ -97,11 +97,13 @@ impl Default for Stage2Schedule {
                 sh_dc: 1e-2,
                 sh_rest: 0.0,
             },
+            // Growth over stage 2's first half, capped: every human Gaussian costs N_l
+            // samples of F_vis and the BRDF per step.
             densify: DensifyConfig {
-                start: 200,
-                stop: 1000,
+                start: 500,
+                stop: 900,
                 every: 100,
-                max_gaussians: 40_000,
+                max_gaussians: 20_000,
                 ..DensifyConfig::default()
             },
             materials: HashMlpConfig {
@@ -154,8 +156,8 @@ impl Default for SceneSchedule {
             rates: LearningRates::default(),
             densify: DensifyConfig {
                 start: 300,
-                stop: 1500,
-                max_gaussians: 80_000,
+                stop: 1100,
+                max_gaussians: 60_000,
                 ..DensifyConfig::default()
             },
         }
@@ -310,7 +312,7 @@ impl Default for IllumConfig {
     fn default() -> Self {
         Self {
             backend: Backend::Flex,
-            iterations: 2000,
+            iterations: 1400,
             eval_every: 0,
             checkpoint_every: 500,
             lpips_weights: None,

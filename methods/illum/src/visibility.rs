@@ -13,7 +13,7 @@
 
 use burn::module::Module;
 use burn::nn::Linear;
-use burn::tensor::activation::sigmoid;
+use burn::tensor::activation::{relu, sigmoid};
 use burn::tensor::{Device, Tensor};
 use rand::Rng;
 use splatzoo_models::networks::encoding::{encoded_width, frequency_encoding};
@@ -89,6 +89,11 @@ impl VisibilityNet {
 
     /// Logits `[N, S]` of canonical points `[N, 3]` under directions `[N, S, 3]` (root frame)
     /// and one pose `[pose_width]` (global orientation zeroed by the caller).
+    ///
+    /// The first layer is applied block by block, `W₀x = W_v γ(v) + W_φ γ(φ) + W_θ θ`: the
+    /// position block once per point, the pose block once, only the direction block per
+    /// sample (27 of 162 inputs for SMPL). Equal to [`Self::logit_rows`] on the concatenated
+    /// rows up to rounding (tested).
     pub fn logits(&self, points: Tensor<2>, directions: Tensor<3>, pose: Tensor<1>) -> Tensor<2> {
         let [n, s, three] = directions.dims();
         assert_eq!(three, 3, "F_vis directions must be [N, S, 3]");
@@ -103,6 +108,40 @@ impl VisibilityNet {
             "F_vis was built for poses of {} values",
             self.pose_width
         );
+        let first = &self.trunk.layers[0];
+        let weight = first.weight.val();
+        let [inputs, width] = weight.dims();
+        let p = encoded_width(3, self.config.position_levels);
+        let d = encoded_width(3, self.config.direction_levels);
+        let block = |range: std::ops::Range<usize>| weight.clone().slice([range, 0..width]);
+        let mut shared = frequency_encoding(points, self.config.position_levels)
+            .matmul(block(0..p))
+            + pose
+                .reshape([1, self.pose_width])
+                .matmul(block(p + d..inputs));
+        if let Some(bias) = &first.bias {
+            shared = shared + bias.val().reshape([1, width]);
+        }
+        let per_sample =
+            frequency_encoding(directions.reshape([n * s, 3]), self.config.direction_levels)
+                .matmul(block(p..p + d))
+                .reshape([n, s, width]);
+        let x = relu(per_sample + shared.reshape([n, 1, width])).reshape([n * s, width]);
+        let hidden = self.trunk.layers[1..]
+            .iter()
+            .fold(x, |x, layer| relu(layer.forward(x)));
+        self.head.forward(hidden).reshape([n, s])
+    }
+
+    /// [`Self::logits`] by concatenating every row's full input `[γ(v) ‖ γ(φ) ‖ θ]` (the plain
+    /// reference of the blocked first layer).
+    pub fn logits_reference(
+        &self,
+        points: Tensor<2>,
+        directions: Tensor<3>,
+        pose: Tensor<1>,
+    ) -> Tensor<2> {
+        let [n, s, _] = directions.dims();
         let position = frequency_encoding(points, self.config.position_levels); // [N, P]
         let p = position.dims()[1];
         let position = position

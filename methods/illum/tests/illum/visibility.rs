@@ -1,7 +1,8 @@
 //! F_vis (Eq. 3): its input layout, the stable cross-entropy against its f64 formula at
 //! extreme logits, ray-cast labels on the built-in body (open straight ahead of its most
 //! forward point, blocked between the legs, changed by raising an arm), and a small network
-//! learning the labels of one pose well beyond the majority rate on fresh pairs.
+//! learning the labels of one pose well beyond the majority rate on fresh pairs; the blocked
+//! first layer of the fast path equals the concatenated rows.
 
 use crate::{Rng, fresh_seed, values};
 use burn::module::Module;
@@ -274,4 +275,32 @@ fn raising_an_arm_opens_the_light_under_it() {
         lowered > raised + 0.3,
         "blocked with the arm down {lowered}, raised {raised}"
     );
+}
+
+#[test]
+fn the_blocked_first_layer_equals_the_concatenated_rows() {
+    let seed = fresh_seed();
+    let mut rng = Rng(seed);
+    let device = Device::flex();
+    let pose_width = 72;
+    let net = VisibilityNet::new(VisibilityConfig::default(), pose_width, &device);
+    let (n, s) = (7, 5);
+    let mut draw = |count: usize, scale: f64| -> Vec<f32> {
+        (0..count).map(|_| (scale * rng.gauss()) as f32).collect()
+    };
+    let points = Tensor::<2>::from_data(TensorData::new(draw(3 * n, 0.5), [n, 3]), &device);
+    let directions =
+        Tensor::<3>::from_data(TensorData::new(draw(3 * n * s, 1.0), [n, s, 3]), &device);
+    let pose = Tensor::<1>::from_data(
+        TensorData::new(draw(pose_width, 0.4), [pose_width]),
+        &device,
+    );
+    let fast = values(net.logits(points.clone(), directions.clone(), pose.clone()));
+    let slow = values(net.logits_reference(points, directions, pose));
+    for (a, b) in fast.iter().zip(&slow) {
+        assert!(
+            (a - b).abs() <= 1e-4 * (1.0 + b.abs()),
+            "seed {seed}: blocked {a} vs concatenated {b}"
+        );
+    }
 }
