@@ -23,6 +23,7 @@ use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_rasterizer::Render;
 use std::ops::Range;
 
+pub mod kl;
 pub mod strategy;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -34,6 +35,9 @@ pub enum Strategy {
     Mcmc,
     /// A fixed set of Gaussians.
     None,
+    /// ADC's growth where the KL divergence to the nearest neighbour exceeds `kl_split`,
+    /// merging where it is below `kl_merge` (GauHuman; [`kl`]).
+    Kl,
 }
 
 /// Every knob of density control. Step numbers are optimiser steps (1-based).
@@ -67,6 +71,10 @@ pub struct DensifyConfig {
     /// MCMC: weights of the mean-opacity and mean-scale regularisers.
     pub opacity_reg: f64,
     pub scale_reg: f64,
+    /// KL: grow only Gaussians farther than this from their nearest neighbour, and merge
+    /// pairs closer than `kl_merge` (GauHuman: 0.4 and 0.1).
+    pub kl_split: f64,
+    pub kl_merge: f64,
 }
 
 impl Default for DensifyConfig {
@@ -88,6 +96,8 @@ impl Default for DensifyConfig {
             noise_lr: 5e5,
             opacity_reg: 0.01,
             scale_reg: 0.01,
+            kl_split: 0.4,
+            kl_merge: 0.1,
         }
     }
 }
@@ -183,6 +193,8 @@ pub struct DensifyReport {
     pub cloned: usize,
     pub split: usize,
     pub pruned: usize,
+    /// Pairs merged into one (KL density control).
+    pub merged: usize,
     pub relocated: usize,
     pub added: usize,
 }
@@ -240,33 +252,66 @@ pub fn adaptive_density_control(
             report.cloned += 1;
             budget -= 1;
         } else {
-            // Two samples from the Gaussian itself, each 1.6× narrower (3DGS).
-            let (mean, rotation) = (rows.mean(i), rows.rotation(i));
-            for _ in 0..2 {
-                let z: [f32; 3] = std::array::from_fn(|k| rng.normal() as f32 * scale[k]);
-                let row = added.len();
-                added.push_from(&rows, i);
-                added_from.push(i);
-                for a in 0..3 {
-                    added.means[3 * row + a] =
-                        mean[a] + (0..3).map(|b| rotation[a][b] * z[b]).sum::<f32>();
-                    added.log_scales[3 * row + a] = (scale[a] / 1.6).ln();
-                }
-            }
+            push_split(&rows, i, &mut added, &mut added_from, rng);
             report.split += 1;
             budget -= 1;
         }
     }
+    replace_rows(
+        set,
+        optimizer,
+        stats,
+        keep,
+        &added,
+        added_from,
+        old_from_new,
+    );
+    report
+}
+
+/// Appends two samples of row `i` drawn from the Gaussian itself, each 1.6× narrower (3DGS's
+/// split), recording `i` as their source.
+pub(crate) fn push_split(
+    rows: &GaussianRows,
+    i: usize,
+    added: &mut GaussianRows,
+    added_from: &mut Vec<usize>,
+    rng: &mut Rng,
+) {
+    let (mean, rotation, scale) = (rows.mean(i), rows.rotation(i), rows.scale(i));
+    for _ in 0..2 {
+        let z: [f32; 3] = std::array::from_fn(|k| rng.normal() as f32 * scale[k]);
+        let row = added.len();
+        added.push_from(rows, i);
+        added_from.push(i);
+        for a in 0..3 {
+            added.means[3 * row + a] = mean[a] + (0..3).map(|b| rotation[a][b] * z[b]).sum::<f32>();
+            added.log_scales[3 * row + a] = (scale[a] / 1.6).ln();
+        }
+    }
+}
+
+/// The set becomes rows `keep` followed by `added` (each from row `added_from`), the
+/// optimiser's moments follow (new rows start at zero), the statistics restart, and
+/// `old_from_new` receives the lineage.
+pub(crate) fn replace_rows(
+    set: &mut GaussianSet,
+    optimizer: &mut GaussianOptimizer,
+    stats: &mut DensityStats,
+    keep: Vec<usize>,
+    added: &GaussianRows,
+    added_from: Vec<usize>,
+    old_from_new: &mut Vec<usize>,
+) {
     let device = set.means.device();
     *set = set
         .select(&keep)
-        .append(&GaussianSet::from_rows(&added, &device));
+        .append(&GaussianSet::from_rows(added, &device));
     optimizer.select(&keep);
     optimizer.grow(added.len());
     *stats = DensityStats::new(set.len(), &device);
     *old_from_new = keep;
     old_from_new.extend(added_from);
-    report
 }
 
 /// 3DGS's opacity reset: every opacity capped at 0.01, its optimiser state restarted.

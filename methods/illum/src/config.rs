@@ -100,6 +100,7 @@ impl Default for Stage2Schedule {
             // Growth over stage 2's first half, capped: every human Gaussian costs N_l
             // samples of F_vis and the BRDF per step.
             densify: DensifyConfig {
+                strategy: Strategy::Kl,
                 start: 500,
                 stop: 900,
                 every: 100,
@@ -174,7 +175,8 @@ pub struct LightSchedule {
     pub max_per_axis: usize,
     pub degree: u32,
     pub latent_dim: usize,
-    /// Probe SH (R3DG `light_lr`) and latents.
+    /// Probe SH DC (R3DG `light_lr`, scaled to the schedule; the higher bands take a tenth)
+    /// and latents.
     pub sh_lr: f64,
     pub latent_lr: f64,
     /// The shadow box's padding around the posed human, in body heights.
@@ -192,7 +194,9 @@ impl Default for LightSchedule {
             max_per_axis: 16,
             degree: 2,
             latent_dim: 16,
-            sh_lr: 1e-3,
+            // R3DG's 1e-3 over its 30k steps; ×10 for this CPU schedule of ~1000 stage-2
+            // steps, in which Adam moves a coefficient by at most about lr per step.
+            sh_lr: 1e-2,
             latent_lr: 1e-3,
             shadow_pad: 0.5,
             decoder_lr: 1e-3,
@@ -312,7 +316,7 @@ impl Default for IllumConfig {
     fn default() -> Self {
         Self {
             backend: Backend::Flex,
-            iterations: 1400,
+            iterations: 1200,
             eval_every: 0,
             checkpoint_every: 500,
             lpips_weights: None,
@@ -396,8 +400,8 @@ impl MethodConfig for IllumConfig {
         if self.stage2.densify.strategy == Strategy::Mcmc {
             return bad(
                 "stage2.densify.strategy",
-                "the human keeps its vertex binding through clone/split/prune (adc) or a fixed \
-                 set (none); mcmc relocation is not supported"
+                "the human is re-bound to the mesh after clone/split/merge/prune (kl, adc) or \
+                 kept fixed (none); mcmc relocation is not supported"
                     .to_owned(),
             );
         }

@@ -5,16 +5,19 @@
 //! - **Albedo**: PSNR of the rendered albedo map against the renderer's albedo buffer on the
 //!   person's pixels, after the per-channel least-squares scale (albedo and light share a
 //!   scale no image can fix).
-//! - **Relit**: the held-out frames under the capture's other lights; each probe is set to
-//!   the analytic SH of the new light at its position times the per-channel gain the learned
-//!   probes have against the training light's analytic SH (the same ambiguity), and the
-//!   human crop is scored (the scene stays baked, as in the paper's application). A model
+//! - **Relit**: the held-out frames under the capture's other lights; each probe keeps what it
+//!   learned and takes the analytic change of light at its position in the learned units,
+//!   `p + g (T_new − T_train)`, with `g` the per-channel gain of the learned probes against
+//!   the training light's analytic SH (albedo and light share a scale); the human crop is
+//!   scored (the scene stays baked, as in the paper's application). A model
 //!   without the light volume renders its fixed colours: the baseline relighting must beat.
 //! - **Shadow region**: pixels the person does not cover whose true colour the person's cast
 //!   shadow darkens by more than 15 % (`IllumFrame::shadow_ratio`); mean absolute sRGB error
 //!   there, with the decoder's `ao` and with `ao ≡ 1`.
 //! - **Novel poses**: the novel-pose clip (the same identity turning and waving) from its
 //!   fixed camera, full image.
+//! - **F_vis** on the held-out frames' poses: accuracy against 512 fresh ray-cast labels per
+//!   frame, beside the majority rate (what a constant guess scores).
 //! - **Probes**: the relative RMS error of the gain-corrected learned probe SH against the
 //!   analytic SH of the training light.
 
@@ -57,6 +60,9 @@ pub struct IllumScores {
     pub shadow_error_without_ao: Option<f64>,
     pub novel_pose_psnr: f64,
     pub probe_relative_error: Option<f64>,
+    /// F_vis's accuracy on held-out poses and the labels' majority rate (trained F_vis only).
+    pub visibility_accuracy: Option<f64>,
+    pub visibility_majority: Option<f64>,
 }
 
 fn untracked(s: Splats) -> Splats {
@@ -70,7 +76,7 @@ fn untracked(s: Splats) -> Splats {
 }
 
 /// The person's mask bounding box `(rows, cols)`, `None` when the mask is empty.
-fn person_box(frame: &IllumFrame) -> Option<(std::ops::Range<usize>, std::ops::Range<usize>)> {
+pub fn person_box(frame: &IllumFrame) -> Option<(std::ops::Range<usize>, std::ops::Range<usize>)> {
     let [h, w, _] = frame.image.dims();
     let (mut r0, mut r1, mut c0, mut c1) = (h, 0, w, 0);
     for (i, &p) in frame.person.iter().enumerate() {
@@ -130,7 +136,14 @@ impl IllumTrainer {
         let (human, channels) = match &self.stage2 {
             Some(stage2) => {
                 let canonical = untracked(stage2.human.render(&query, &context).splats);
-                self.stage2_human(nets, &canonical, pose, camera, false, 0)
+                self.stage2_human(
+                    nets,
+                    &canonical,
+                    pose,
+                    camera,
+                    self.config.stage2.sampling(false),
+                    None,
+                )
             }
             None => {
                 let body = self.body.clone().no_grad();
@@ -210,7 +223,8 @@ impl IllumTrainer {
         (err / norm.max(1e-20)).sqrt()
     }
 
-    /// A copy of the volume whose probes hold `gain ×` the analytic SH of `lighting`.
+    /// A copy of the volume whose probes change by `gain ×` the analytic change from the
+    /// training light to `lighting`.
     fn relit_volume(
         &self,
         volume: &LightVolume,
@@ -219,12 +233,16 @@ impl IllumTrainer {
     ) -> LightVolume {
         let grid = *volume.grid();
         let [p, k, _] = volume.sh.val().dims();
-        let mut values = vec![0.0f32; p * k * 3];
+        let mut values = host_f32(&volume.sh.val());
         for i in 0..p {
-            let truth = lighting.radiance_sh(grid.position(i));
+            let position = grid.position(i);
+            let (new, old) = (
+                lighting.radiance_sh(position),
+                self.capture.probe_truth(position),
+            );
             for j in 0..k.min(9) {
                 for c in 0..3 {
-                    values[(i * k + j) * 3 + c] = (gain[c] * truth[j][c]) as f32;
+                    values[(i * k + j) * 3 + c] += (gain[c] * (new[j][c] - old[j][c])) as f32;
                 }
             }
         }
@@ -335,7 +353,44 @@ impl IllumTrainer {
         if pbr {
             scores.probe_relative_error = Some(self.probe_error(self.probe_gain()));
         }
+        if pbr && self.config.visibility.source == crate::visibility::VisibilitySource::Net {
+            let (accuracy, majority) = self.visibility_scores(&tests);
+            scores.visibility_accuracy = Some(accuracy);
+            scores.visibility_majority = Some(majority);
+        }
         Ok(scores)
+    }
+
+    /// F_vis against fresh ray-cast labels of each frame's posed mesh: (accuracy, majority
+    /// rate).
+    fn visibility_scores(&self, frames: &[&IllumFrame]) -> (f64, f64) {
+        let net = self.visibility.valid();
+        let (mut right, mut open, mut total) = (0usize, 0usize, 0usize);
+        for frame in frames {
+            let labels = self.visibility_labels(frame.frame, 512, 0xE7A1 ^ frame.frame as u64);
+            let pose = self.frame_pose(frame.frame, false);
+            let count = labels.open.len();
+            let flat =
+                |v: &[[f64; 3]]| -> Vec<f32> { v.iter().flatten().map(|&x| x as f32).collect() };
+            let points = Tensor::<2>::from_data(
+                TensorData::new(flat(&labels.points), [count, 3]),
+                &self.device,
+            );
+            let world = Tensor::<2>::from_data(
+                TensorData::new(flat(&labels.directions), [count, 3]),
+                &self.device,
+            );
+            let local = world.matmul(pose.root.clone()).reshape([count, 1, 3]);
+            let predicted = host_f32(&net.forward(points, local, pose.pose_vector.clone()));
+            for (p, &label) in predicted.iter().zip(&labels.open) {
+                right += usize::from((*p > 0.5) == (label > 0.5));
+                open += usize::from(label > 0.5);
+            }
+            total += count;
+        }
+        let total = total.max(1) as f64;
+        let open = open as f64 / total;
+        (right as f64 / total, open.max(1.0 - open))
     }
 
     fn relit_scores(&self, nets: Nets, scores: &mut IllumScores) -> Result<(), IllumError> {

@@ -107,8 +107,14 @@ pub fn write_outputs(
                         opacity_logits: canonical.opacity_logits.autodiff(),
                         colors: canonical.colors.autodiff(),
                     };
-                    let (posed, [colour, ..]) =
-                        trainer.stage2_human(nets, &canonical, &pose, &frame.camera, false, 0);
+                    let (posed, [colour, ..]) = trainer.stage2_human(
+                        nets,
+                        &canonical,
+                        &pose,
+                        &frame.camera,
+                        trainer.config.stage2.sampling(false),
+                        None,
+                    );
                     Splats {
                         means: posed.means.inner(),
                         quats: posed.quats.inner(),

@@ -74,6 +74,18 @@ fn load_int(
 }
 
 impl Illum {
+    /// A fresh run on a capture already built from `config.data` (shared by the arms of
+    /// `ablate-illum` and the bench).
+    pub fn from_capture(
+        config: IllumConfig,
+        capture: crate::data::IllumCapture,
+        device: &Device,
+    ) -> Result<Self, TrainError> {
+        let trainer = IllumTrainer::from_capture(config, capture, device)?;
+        let decisions = Self::decisions_for(&trainer);
+        Ok(Self { trainer, decisions })
+    }
+
     fn decisions_for(trainer: &IllumTrainer) -> Vec<String> {
         let c = &trainer.config;
         let grid = trainer.volume.grid();
@@ -243,7 +255,7 @@ impl Method for Illum {
     fn step(&mut self) -> Result<StepReport, TrainError> {
         let t = &mut self.trainer;
         let mut note = None;
-        let losses = if t.step < t.config.stage2_start() {
+        let mut losses = if t.step < t.config.stage2_start() {
             t.stage1_step()?
         } else {
             if t.stage2.is_none() {
@@ -264,7 +276,7 @@ impl Method for Illum {
         t.step += 1;
         Ok(StepReport {
             loss: losses.total,
-            note,
+            note: note.or(losses.note.take()),
         })
     }
 

@@ -32,13 +32,15 @@ use splatzoo_train::scene::skinned::skinning::skin_splats;
 use splatzoo_train::scene::{FrameContext, FrameQuery, SceneNode, StepEnd};
 
 /// What one step reports.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct StepLosses {
     pub total: f64,
     /// The joint image term.
     pub scene: f64,
     /// The human-only image term.
     pub human: f64,
+    /// What the human's density control did this step, if anything.
+    pub note: Option<String>,
 }
 
 /// The networks a render reads: the live ones while training, gradient-free copies in
@@ -207,6 +209,19 @@ impl IllumTrainer {
         }
     }
 
+    /// The loss's value and gradients; a loss that is not finite stops the run, named.
+    fn backward(&self, total: Tensor<1>) -> Result<(f64, Gradients), IllumError> {
+        let value = scalar(total.clone());
+        if !value.is_finite() {
+            return Err(splatzoo_train::TrainError::NonFinite {
+                step: self.step,
+                value,
+            }
+            .into());
+        }
+        Ok((value, total.backward()))
+    }
+
     /// Stage 1 (§3.1): the refined body's face Gaussians with F_c's colours.
     pub fn stage1_step(&mut self) -> Result<StepLosses, IllumError> {
         let target = self.target();
@@ -256,15 +271,7 @@ impl IllumTrainer {
         if let Some(r) = self.scene.regulariser() {
             total = total + r;
         }
-        let value = scalar(total.clone());
-        if !value.is_finite() {
-            return Err(splatzoo_train::TrainError::NonFinite {
-                step: self.step,
-                value,
-            }
-            .into());
-        }
-        let grads = total.backward();
+        let (value, grads) = self.backward(total)?;
         let lr = self.config.stage1.field_lr;
         self.body.offset = self.offset_adam.step(self.body.offset.clone(), &grads, lr);
         self.body.colour = self.colour_adam.step(self.body.colour.clone(), &grads, lr);
@@ -285,20 +292,21 @@ impl IllumTrainer {
             total: value,
             scene: scene_term,
             human: human_term,
+            note: None,
         })
     }
 
     /// Stage 2's human for one frame: posed Gaussians and their per-Gaussian channels (Eq. 4–7;
-    /// without the light volume, their own colour). `offsets` are F_Δ's frozen offsets
-    /// (autodiff device); `training` picks N_l and random azimuths.
+    /// without the light volume, their own colour) with `sampling`'s N_l; `step_seed` draws
+    /// each Gaussian's random azimuth offset (training), `None` leaves them at 0 (evaluation).
     pub fn stage2_human(
         &self,
         nets: Nets,
         canonical: &Splats,
         pose: &FramePose,
         camera: &Camera,
-        training: bool,
-        step_seed: u64,
+        sampling: crate::lighting::SamplingConfig,
+        step_seed: Option<u64>,
     ) -> (Splats, [Tensor<2>; 4]) {
         let stage2 = self.stage2.as_ref().expect("stage 2 has started");
         let n = canonical.len();
@@ -328,8 +336,7 @@ impl IllumTrainer {
         let material = stage2.binding.transfer.apply(per_vertex);
         let metallic = material.clone().slice([0..n, 0..1]);
         let roughness = material.clone().slice([0..n, 1..2]);
-        let sampling = self.config.stage2.sampling(training);
-        let azimuth_offsets = training.then(|| {
+        let azimuth_offsets = step_seed.map(|step_seed| {
             let mut rng = StdRng::seed_from_u64(step_seed ^ 0xA21);
             let values: Vec<f32> = (0..n)
                 .map(|_| rng.random_range(0.0..std::f32::consts::TAU))
@@ -427,8 +434,8 @@ impl IllumTrainer {
             &canonical,
             &pose,
             &target.camera,
-            true,
-            step_seed,
+            self.config.stage2.sampling(true),
+            Some(step_seed),
         );
         let scene = self.scene_splats(&target.camera);
         let m = scene.len();
@@ -474,26 +481,25 @@ impl IllumTrainer {
         if let Some(r) = self.scene.regulariser() {
             total = total + r;
         }
-        let value = scalar(total.clone());
-        if !value.is_finite() {
-            return Err(splatzoo_train::TrainError::NonFinite {
-                step: self.step,
-                value,
-            }
-            .into());
-        }
-        let grads = total.backward();
+        let (value, grads) = self.backward(total)?;
         self.end_scene_step(&grads, &joint.render, m);
         let progress = self.step as f64 / self.config.iterations.max(1) as f64;
-        let edited = {
+        let (edited, report) = {
             let stage2 = self.stage2.as_mut().expect("stage 2 has started");
-            stage2.human.end_step(&StepEnd {
+            let report = stage2.human.end_step(&StepEnd {
                 grads: &grads,
                 renders: vec![(&joint.render, m..m + n), (&alone.render, 0..n)],
                 step: self.step,
                 progress,
             });
-            stage2.human.take_lineage().is_some()
+            let count = stage2.human.gaussians();
+            let note = report.map(|r| {
+                format!(
+                    "human density: {} cloned, {} split, {} merged, {} pruned → {count} Gaussians",
+                    r.cloned, r.split, r.merged, r.pruned
+                )
+            });
+            (stage2.human.take_lineage().is_some(), note)
         };
         if edited {
             self.rebind();
@@ -516,6 +522,7 @@ impl IllumTrainer {
             total: value,
             scene: scene_term,
             human: human_term,
+            note: report,
         })
     }
 

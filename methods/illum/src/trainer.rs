@@ -132,8 +132,25 @@ impl IllumTrainer {
 
     pub fn new(config: IllumConfig, device: &Device) -> Result<Self, IllumError> {
         device.seed(config.seed);
-        let autodiff = device.clone().autodiff();
         let capture = config.data.build(device)?;
+        Self::from_capture(config, capture, device)
+    }
+
+    /// A fresh trainer on a capture already built from `config.data` (benches and ablations
+    /// share one); the networks' initial weights depend only on `config.seed`.
+    pub fn from_capture(
+        config: IllumConfig,
+        capture: IllumCapture,
+        device: &Device,
+    ) -> Result<Self, IllumError> {
+        if capture.config != config.data {
+            return Err(IllumError::input(
+                "capture",
+                "built from another data configuration than the run's `data`",
+            ));
+        }
+        device.seed(config.seed ^ 0x111_0000);
+        let autodiff = device.clone().autodiff();
         let mesh = BodyMesh::new(&builtin_body().model, config.stage1.body.subdivisions)?;
         let laplacian = UniformLaplacian::new(mesh.vertex_count(), &mesh.model.faces);
         let tensors = BodyTensors::new(&mesh.model, device);

@@ -1,7 +1,8 @@
 //! Density control as a strategy a scene node owns: the node hands its strategy the renders of
 //! each step (for statistics), asks it for regularisers on the step's leaves, and after the
 //! optimiser step lets it add, remove or move rows of its Gaussian set, mirrored in the node's
-//! optimiser moments. [`Adc`], [`Mcmc`] and [`Fixed`] are the strategies so far; a method picks
+//! optimiser moments. [`Adc`], [`Mcmc`], [`Fixed`] and GauHuman's
+//! [`super::kl::KlDensity`] are the strategies so far; a method picks
 //! one per node through [`DensifyConfig::strategy`] and [`strategy`].
 
 use super::{
@@ -71,6 +72,11 @@ pub fn strategy(
             config: config.clone(),
         }),
         Strategy::None => Box::new(Fixed),
+        Strategy::Kl => Box::new(super::kl::KlDensity {
+            config: config.clone(),
+            stats: DensityStats::new(rows, device),
+            extent,
+        }),
     }
 }
 

@@ -9,6 +9,7 @@
 //! `metrics.json` policy and the checkpoint's format tag — lives once in [`cli`], so a
 //! `train-<method>` binary is `fn main() -> ExitCode { cli::main::<MyMethod>() }`.
 
+pub mod arms;
 pub mod cli;
 mod epoch;
 mod metrics;

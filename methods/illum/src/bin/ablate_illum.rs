@@ -1,6 +1,7 @@
 //! `ablate-illum`: Table 4 of the paper from one binary. Each arm is the full method one
-//! `--set` line apart (the skinned-avatar baseline two), trained from the same seed on the
-//! same capture and scored the same way; the table goes to `<out>/ablation.csv` and each
+//! `--set` line apart (the skinned-avatar baseline two), trained from the same seed on one
+//! capture (built once; a seed override changes the networks' start, not the data) and scored
+//! the same way; the table goes to `<out>/ablation.csv` and each
 //! arm's scores to `<out>/<arm>_seed<k>.json`.
 //!
 //! ```sh
@@ -13,7 +14,7 @@ use splatzoo_illum::config::IllumConfig;
 use splatzoo_illum::eval::IllumScores;
 use splatzoo_illum::method::Illum;
 use splatzoo_train::TrainError;
-use splatzoo_train::harness::{Method, MethodConfig};
+use splatzoo_train::harness::{Method, MethodConfig, arms};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -74,23 +75,11 @@ fn run(args: &Args) -> Result<(), TrainError> {
     let base: IllumConfig =
         splatzoo_train::config::load(&IllumConfig::default(), None, &args.overrides)?;
     base.validate()?;
-    let arms: Vec<&(&str, &[&str])> = ARMS
-        .iter()
-        .filter(|(name, _)| args.arms.is_empty() || args.arms.iter().any(|a| a == name))
-        .collect();
-    if arms.is_empty() {
-        let names: Vec<&str> = ARMS.iter().map(|(n, _)| *n).collect();
-        return Err(TrainError::Config(format!(
-            "no arm named {:?}; the arms are {}",
-            args.arms,
-            names.join(", ")
-        )));
-    }
-    std::fs::create_dir_all(&args.out).map_err(|source| TrainError::System {
-        what: format!("cannot create {}", args.out.display()),
-        source,
-    })?;
+    let arms = arms::select(&ARMS, &args.arms)?;
+    arms::create_dir(&args.out)?;
     let device = base.backend.device();
+    device.seed(base.seed);
+    let capture = base.data.build(&device).map_err(TrainError::from)?;
     let mut lines = vec![HEADER.to_owned()];
     for (name, sets) in arms {
         for k in 0..args.seeds {
@@ -99,7 +88,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
             let config: IllumConfig = splatzoo_train::config::load(&base, None, &overrides)?;
             config.validate()?;
             let start = Instant::now();
-            let mut method = Illum::new(config.clone(), &device)?;
+            let mut method = Illum::from_capture(config.clone(), capture.clone(), &device)?;
             while method.steps() < config.iterations {
                 method.step()?;
             }
@@ -109,14 +98,12 @@ fn run(args: &Args) -> Result<(), TrainError> {
             lines.push(row);
             let json = serde_json::to_string_pretty(&scores).expect("plain data");
             let path = args.out.join(format!("{name}_seed{}.json", config.seed));
-            splatzoo_models::files::write_atomically(&path, |tmp| std::fs::write(tmp, &json))
-                .map_err(|e| TrainError::Config(format!("{}: {e}", path.display())))?;
+            arms::write_text(&path, &json)?;
         }
     }
     let path = args.out.join("ablation.csv");
     let table = lines.join("\n") + "\n";
-    splatzoo_models::files::write_atomically(&path, |tmp| std::fs::write(tmp, &table))
-        .map_err(|e| TrainError::Config(format!("{}: {e}", path.display())))?;
+    arms::write_text(&path, &table)?;
     println!("{table}wrote {}", path.display());
     Ok(())
 }

@@ -13,7 +13,7 @@ use splatzoo_prior_4d::Prior4d;
 use splatzoo_prior_4d::config::Prior4dConfig;
 use splatzoo_prior_4d::eval::JointScores;
 use splatzoo_train::TrainError;
-use splatzoo_train::harness::{Method, MethodConfig};
+use splatzoo_train::harness::{Method, MethodConfig, arms};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -80,22 +80,8 @@ fn run(args: &Args) -> Result<(), TrainError> {
     let base: Prior4dConfig =
         splatzoo_train::config::load(&Prior4dConfig::default(), None, &args.overrides)?;
     base.validate()?;
-    let arms: Vec<&(&str, &[&str])> = ARMS
-        .iter()
-        .filter(|(name, _)| args.arms.is_empty() || args.arms.iter().any(|a| a == name))
-        .collect();
-    if arms.is_empty() {
-        let names: Vec<&str> = ARMS.iter().map(|(n, _)| *n).collect();
-        return Err(TrainError::Config(format!(
-            "no arm named {:?}; the arms are {}",
-            args.arms,
-            names.join(", ")
-        )));
-    }
-    std::fs::create_dir_all(&args.out).map_err(|source| TrainError::System {
-        what: format!("cannot create {}", args.out.display()),
-        source,
-    })?;
+    let arms = arms::select(&ARMS, &args.arms)?;
+    arms::create_dir(&args.out)?;
     let device = base.backend.device();
     let start = Instant::now();
     let mut shared = Prior4d::new(base.clone(), &device)?;
@@ -138,8 +124,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
             }
             let json = serde_json::to_string_pretty(&scores).expect("plain data");
             let path = args.out.join(format!("{name}_seed{seed}.json"));
-            splatzoo_models::files::write_atomically(&path, |tmp| std::fs::write(tmp, &json))
-                .map_err(|e| TrainError::Config(format!("{}: {e}", path.display())))?;
+            arms::write_text(&path, &json)?;
         }
     }
     if let Some(p) = priors_only {
@@ -147,8 +132,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
     }
     let path = args.out.join("ablation.csv");
     let table = lines.join("\n") + "\n";
-    splatzoo_models::files::write_atomically(&path, |tmp| std::fs::write(tmp, &table))
-        .map_err(|e| TrainError::Config(format!("{}: {e}", path.display())))?;
+    arms::write_text(&path, &table)?;
     println!("{table}wrote {}", path.display());
     Ok(())
 }
