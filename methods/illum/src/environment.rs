@@ -157,13 +157,13 @@ impl EquirectMap {
 
 impl Sky {
     /// The sky's radiance SH of `degree`, sun included, turned by `rotation` degrees about
-    /// `+y`; the gradient is sampled on a `4·32 × 32` map.
+    /// `+y`; the gradient is sampled on a `128 × 64` map.
     pub fn project(&self, degree: u32, rotation: f64) -> Vec<[f64; 3]> {
         let mut sh = EquirectMap::sky(self, 128, 64).project(degree, rotation);
         let sun = rotate_about_up(direction_of(self.sun_elevation, self.sun_azimuth), rotation);
-        for (j, y) in sh_basis_f64(degree, sun).iter().enumerate() {
-            for c in 0..3 {
-                sh[j][c] += f64::from(self.sun[c]) * y;
+        for (coefficient, y) in sh.iter_mut().zip(sh_basis_f64(degree, sun)) {
+            for (value, sun) in coefficient.iter_mut().zip(self.sun) {
+                *value += f64::from(sun) * y;
             }
         }
         sh

@@ -121,9 +121,9 @@ pub fn kl_density_control(
     let mut added_from = Vec::new();
     let mut budget = config.max_gaussians.saturating_sub(n);
     let dense = (config.percent_dense * extent) as f32;
-    for i in 0..n {
+    for (i, dead) in done.iter_mut().enumerate() {
         if (rows.opacity(i) as f64) < config.min_opacity {
-            done[i] = true;
+            *dead = true;
             report.pruned += 1;
         }
     }

@@ -195,10 +195,10 @@ fn a_schedule_without_stage_two_is_refused_by_name() {
     };
     let mut bad = config.clone();
     bad.stage1.steps = 10;
-    let error = bad.validate().err().expect("refused").to_string();
+    let error = bad.validate().expect_err("refused").to_string();
     assert!(error.contains("stage1.steps"), "{error}");
     let mut bad = config;
     bad.light.degree = 4;
-    let error = bad.validate().err().expect("refused").to_string();
+    let error = bad.validate().expect_err("refused").to_string();
     assert!(error.contains("light.degree"), "{error}");
 }
