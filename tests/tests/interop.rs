@@ -3,10 +3,12 @@
 //! harness's history, PNG renders, ONNX graphs in tract), and checkpoints carried from one
 //! process to another (resumed bit-exactly on the CPU, read by `render`, `drive-nlf` and
 //! `animate-avatar`; `train-apf` and `train-prior4d` resumed across processes, the latter from
-//! inside stage B and inside stage D).
+//! inside stage B and inside stage D; `train-illum` from inside stage 1, its checkpoint
+//! relit by `relight-illum`).
 
 use burn::tensor::Device;
 use splatzoo_apf_gs::trainer::ApfTrainer;
+use splatzoo_illum::method::Illum;
 use splatzoo_nlf_gs::onnx;
 use splatzoo_nlf_gs::trainer::NlfTrainer;
 use splatzoo_prior_4d::Prior4d;
@@ -485,6 +487,107 @@ fn train_prior4d_outputs_read_back_and_resume_across_stages_and_processes() {
             )),
         );
     }
+}
+
+#[test]
+fn train_illum_outputs_read_back_resume_across_processes_and_relight() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = [
+        "--iterations",
+        "6",
+        "--set",
+        "data.width=48",
+        "--set",
+        "data.height=36",
+        "--set",
+        "data.frames=6",
+        "--set",
+        "data.test_every=3",
+        "--set",
+        "data.novel_pose_frames=1",
+        "--set",
+        "data.supersample=1",
+        "--set",
+        "data.shadow_resolution=64",
+        "--set",
+        "data.scene_points=600",
+        "--set",
+        "stage1.steps=3",
+        "--set",
+        "stage2.samples=4",
+        "--set",
+        "stage2.eval_samples=4",
+        "--set",
+        "visibility.labels=128",
+        "--set",
+        "checkpoint_every=0",
+    ];
+    let with = |extra: &[&str]| -> Vec<String> {
+        small.iter().chain(extra).map(|s| s.to_string()).collect()
+    };
+    let out = run(dir.path(), "train-illum", &strs(&with(&["--name", "a"])));
+    assert!(out.status.success(), "{}", text(&out));
+    let run_dir = dir.path().join("runs/illum/a");
+    let saved = run_dir.join("checkpoint.safetensors");
+    check_format(&Checkpoint::read(&saved).unwrap(), Illum::FORMAT).unwrap();
+    let metrics = history(&run_dir.join("metrics.json"));
+    assert_eq!(metrics.method, "illum");
+    let last = metrics
+        .evaluations
+        .last()
+        .expect("an evaluation at the end");
+    assert!(last.scores.psnr.is_finite());
+    for key in [
+        "human_psnr",
+        "albedo_psnr",
+        "relit_human_psnr",
+        "shadow_error",
+    ] {
+        assert!(last.extra["illum"][key].is_number(), "{key}");
+    }
+    let scene = read_ply(&run_dir.join("scene.ply"), &Device::flex()).unwrap();
+    let human = read_ply(&run_dir.join("human_canonical.ply"), &Device::flex()).unwrap();
+    let posed = read_ply(&run_dir.join("posed_frame_0002.ply"), &Device::flex()).unwrap();
+    assert_eq!(posed.len(), scene.len() + human.len());
+    assert_eq!(renders_decode(&run_dir.join("renders")), 2);
+    for graph in ["visibility", "shadow", "materials"] {
+        assert!(
+            run_dir.join(format!("onnx/{graph}.onnx")).exists(),
+            "{graph}"
+        );
+    }
+    // Stopped inside stage 1, resumed in a new process: the same end.
+    let stopped = run(
+        dir.path(),
+        "train-illum",
+        &strs(&with(&["--name", "b", "--stop-after", "2"])),
+    );
+    assert_eq!(stopped.status.code(), Some(130), "{}", text(&stopped));
+    let partial = dir.path().join("runs/illum/b/checkpoint.safetensors");
+    let resumed = run(
+        dir.path(),
+        "train-illum",
+        &strs(&with(&[
+            "--name",
+            "c",
+            "--resume",
+            partial.to_str().unwrap(),
+        ])),
+    );
+    assert!(resumed.status.success(), "{}", text(&resumed));
+    same_tensors(
+        &saved,
+        &dir.path().join("runs/illum/c/checkpoint.safetensors"),
+    );
+    // Relit under a turning sky.
+    let relit = run(
+        dir.path(),
+        "relight-illum",
+        &["--checkpoint", saved.to_str().unwrap(), "--spin", "2"],
+    );
+    assert!(relit.status.success(), "{}", text(&relit));
+    assert!(run_dir.join("relit/relit.gif").exists());
+    assert!(run_dir.join("relit/relit_0001.png").exists());
 }
 
 fn strs(v: &[String]) -> Vec<&str> {

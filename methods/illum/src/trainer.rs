@@ -32,6 +32,7 @@ use splatzoo_models::knn::PointIndex;
 use splatzoo_models::laplacian::UniformLaplacian;
 use splatzoo_models::networks::hash_grid::HashQueries;
 use splatzoo_models::networks::hash_mlp::HashMlp;
+use splatzoo_models::networks::initialised;
 use splatzoo_train::adam::{AdamConfig, AdamState};
 use splatzoo_train::gaussians::{GaussianSet, SH_REST};
 use splatzoo_train::harness::EpochOrder;
@@ -184,21 +185,27 @@ impl IllumTrainer {
             &scene.set.means.clone().autodiff(),
             config.light.shadow_neighbours,
         );
-        let body = RefinedBody::new(
+        let body = initialised(RefinedBody::new(
             &mesh,
             &config.stage1.body,
             config.seed ^ 0x111_0002,
             &autodiff,
-        );
+        ));
         let body_queries = mesh.queries(&body.offset, &autodiff);
         let in_plane_adam = AdamState::new(&body.in_plane.val().inner());
-        let materials = HashMlp::new(
+        let decoder = initialised(ShadowDecoder::new(config.light.latent_dim, &autodiff));
+        let visibility = initialised(VisibilityNet::new(
+            config.visibility.net,
+            3 * mesh.model.joint_count(),
+            &autodiff,
+        ));
+        let materials = initialised(HashMlp::new(
             config.stage2.materials,
             2,
             false,
             config.seed ^ 0x111_0006,
             &autodiff,
-        );
+        ));
         let material_queries = mesh.queries(&materials, &autodiff);
 
         let mut trainer = Self {
@@ -223,13 +230,9 @@ impl IllumTrainer {
             )?,
             sh_adam: AdamState::new(&Tensor::<3>::zeros([1, 1, 3], device)),
             latent_adam: AdamState::new(&Tensor::<2>::zeros([1, 1], device)),
-            decoder: ShadowDecoder::new(config.light.latent_dim, &autodiff),
+            decoder,
             decoder_adam: ModuleAdam::new(NETWORK_ADAM),
-            visibility: VisibilityNet::new(
-                config.visibility.net,
-                3 * mesh.model.joint_count(),
-                &autodiff,
-            ),
+            visibility,
             visibility_adam: ModuleAdam::new(NETWORK_ADAM),
             materials,
             material_queries,
