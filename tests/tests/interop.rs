@@ -4,7 +4,7 @@
 //! process to another (resumed bit-exactly on the CPU, read by `render`, `drive-nlf` and
 //! `animate-avatar`; `train-apf` and `train-prior4d` resumed across processes, the latter from
 //! inside stage B and inside stage D; `train-illum` from inside stage 1, its checkpoint
-//! relit by `relight-illum`).
+//! relit by `relight-illum` and its human moved into a room-B run by `transfer-illum`).
 
 use burn::tensor::Device;
 use splatzoo_apf_gs::trainer::ApfTrainer;
@@ -57,11 +57,14 @@ fn history(path: &Path) -> History {
     serde_json::from_str(&text).expect("metrics.json is a harness history")
 }
 
-/// Every PNG in `dir` decodes and is not blank.
+/// Every PNG in `dir` decodes and is not blank; returns how many there are.
 fn renders_decode(dir: &Path) -> usize {
     let mut count = 0;
     for entry in std::fs::read_dir(dir).expect("renders/") {
         let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "png") {
+            continue;
+        }
         let image = image::open(&path).expect("a PNG").to_rgb8();
         let first = image.get_pixel(0, 0);
         assert!(
@@ -588,6 +591,37 @@ fn train_illum_outputs_read_back_resume_across_processes_and_relight() {
     assert!(relit.status.success(), "{}", text(&relit));
     assert!(run_dir.join("relit/relit.gif").exists());
     assert!(run_dir.join("relit/relit_0001.png").exists());
+    // The same person trained in room B; A's human moved into B's scene and light.
+    let room_b = run(
+        dir.path(),
+        "train-illum",
+        &strs(&with(&["--name", "room-b", "--set", "data.room=\"b\""])),
+    );
+    assert!(room_b.status.success(), "{}", text(&room_b));
+    let scene_b = dir.path().join("runs/illum/room-b/checkpoint.safetensors");
+    let moved = run(
+        dir.path(),
+        "transfer-illum",
+        &[
+            "--human",
+            saved.to_str().unwrap(),
+            "--scene",
+            scene_b.to_str().unwrap(),
+            "--stride",
+            "3",
+        ],
+    );
+    assert!(moved.status.success(), "{}", text(&moved));
+    assert!(
+        text(&moved).contains("lit by B's probes"),
+        "{}",
+        text(&moved)
+    );
+    assert_eq!(
+        renders_decode(&dir.path().join("runs/illum/room-b/transfer")),
+        2,
+        "frames 0 and 3 of B's video"
+    );
 }
 
 fn strs(v: &[String]) -> Vec<&str> {
