@@ -1,6 +1,6 @@
 //! Every knob of a `train-illum` run. The paper gives no schedule, rate, weight or size; the
 //! defaults are the spec's (§4: iHuman, R3DG, RelightableAvatar and INRIA conventions)
-//! compressed to a CPU budget (the default run takes about 23 minutes on 2 cores): stage 1
+//! compressed to a CPU budget (the default run takes about 24 minutes on 2 cores): stage 1
 //! for `stage1.steps`, stage 2 for the rest of `iterations`. The Table-4 ablations are one line each: `ablation.light_volume = false`,
 //! `ablation.shadow = false`, `weights.probe = 0.0`, `ablation.two_stage = false`; the
 //! skinned-avatar baseline is `ablation.light_volume = false` with `ablation.shadow = false`.
