@@ -65,7 +65,9 @@ pub struct IllumScores {
     pub visibility_majority: Option<f64>,
 }
 
-fn untracked(s: Splats) -> Splats {
+/// `s` on the autodiff device without gradient tracking (renders for scores and exports
+/// read the stage-2 pipeline, which runs on that device).
+pub fn untracked(s: Splats) -> Splats {
     Splats {
         means: s.means.autodiff(),
         quats: s.quats.autodiff(),

@@ -99,14 +99,7 @@ pub fn write_outputs(
             let scene = trainer.scene.set.splats();
             let human = match &trainer.stage2 {
                 Some(stage2) => {
-                    let canonical = stage2.human.set.splats();
-                    let canonical = Splats {
-                        means: canonical.means.autodiff(),
-                        quats: canonical.quats.autodiff(),
-                        log_scales: canonical.log_scales.autodiff(),
-                        opacity_logits: canonical.opacity_logits.autodiff(),
-                        colors: canonical.colors.autodiff(),
-                    };
+                    let canonical = crate::eval::untracked(stage2.human.set.splats());
                     let (posed, [colour, ..]) = trainer.stage2_human(
                         nets,
                         &canonical,

@@ -73,13 +73,7 @@ fn shading_error(method: &Illum, count: usize) -> Option<f64> {
         .human
         .render(&query, &FrameContext { outputs: &[] })
         .splats;
-    let canonical = splatzoo_rasterizer::Splats {
-        means: canonical.means.autodiff(),
-        quats: canonical.quats.autodiff(),
-        log_scales: canonical.log_scales.autodiff(),
-        opacity_logits: canonical.opacity_logits.autodiff(),
-        colors: canonical.colors.autodiff(),
-    };
+    let canonical = splatzoo_illum::eval::untracked(canonical);
     let (volume, decoder, materials) = t.frozen();
     let nets = Nets {
         volume: &volume,

@@ -14,11 +14,11 @@
 
 use clap::Parser;
 use splatzoo_illum::IllumError;
-use splatzoo_illum::eval::person_box;
+use splatzoo_illum::eval::{person_box, untracked};
 use splatzoo_illum::method::Illum;
 use splatzoo_illum::render::{HumanLayer, SceneLayer, render_joint};
 use splatzoo_illum::steps::Nets;
-use splatzoo_rasterizer::{ColorMode, RasterSettings, Splats};
+use splatzoo_rasterizer::{ColorMode, RasterSettings};
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::harness::{Method, checkpoint_config};
@@ -59,16 +59,6 @@ fn load(path: &Path) -> Result<Illum, TrainError> {
         .into());
     }
     Ok(method)
-}
-
-fn untracked(s: Splats) -> Splats {
-    Splats {
-        means: s.means.autodiff(),
-        quats: s.quats.autodiff(),
-        log_scales: s.log_scales.autodiff(),
-        opacity_logits: s.opacity_logits.autodiff(),
-        colors: s.colors.autodiff(),
-    }
 }
 
 fn run(args: &Args) -> Result<(), TrainError> {
