@@ -311,7 +311,7 @@ impl IllumTrainer {
         let stage2 = self.stage2.as_ref().expect("stage 2 has started");
         let n = canonical.len();
         let v = self.mesh.vertex_count();
-        let offsets = self.frozen_offsets().autodiff();
+        let offsets = stage2.offsets.clone().autodiff();
         let placed = pose_refined(&pose.posed, offsets).reshape([v, 3]);
         let slot = canonical
             .colors
@@ -557,16 +557,13 @@ impl IllumTrainer {
         count: usize,
         seed: u64,
     ) -> crate::visibility::VisibilityLabels {
+        let stage2 = self.stage2.as_ref().expect("F_vis is trained in stage 2");
         let v = self.mesh.vertex_count();
-        let posed = pose_refined(&self.frame_pose(frame, false).posed, self.frozen_offsets());
+        let posed = pose_refined(&self.frame_pose(frame, false).posed, stage2.offsets.clone());
         let normals =
             host_points(&vertex_normals(posed.clone(), &self.mesh.model.faces).reshape([v, 3]));
         let placed = host_points(&posed.reshape([v, 3]));
-        let canonical: Vec<[f64; 3]> = self
-            .canonical_vertices()
-            .iter()
-            .map(|p| p.map(f64::from))
-            .collect();
+        let canonical: Vec<[f64; 3]> = stage2.canonical.iter().map(|p| p.map(f64::from)).collect();
         let triangles: Vec<[u32; 3]> = self
             .mesh
             .model

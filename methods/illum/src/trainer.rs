@@ -60,6 +60,10 @@ pub struct FramePose {
 pub struct Stage2State {
     pub human: GaussianNode,
     pub binding: Binding,
+    /// F_Δ's offsets `[V, 3]` (plain) and the refined canonical vertices: F_Δ is frozen in
+    /// stage 2, so both are computed once at the hand-over instead of every step.
+    pub offsets: Tensor<2>,
+    pub canonical: Vec<[f32; 3]>,
 }
 
 pub struct IllumTrainer {
@@ -391,13 +395,14 @@ impl IllumTrainer {
         Stage2State {
             human: node,
             binding,
+            offsets: self.frozen_offsets(),
+            canonical: self.canonical_vertices(),
         }
     }
 
     /// Rebinds the stage-2 human after a density edit: skinning weights and the transfer from
     /// the nearest refined canonical vertices of each Gaussian's canonical centre.
     pub fn rebind(&mut self) {
-        let vertices = self.canonical_vertices();
         let joints = self.mesh.model.joint_count();
         let weights = Tensor::<2>::from_data(
             TensorData::new(
@@ -410,8 +415,12 @@ impl IllumTrainer {
             return;
         };
         let centres = as_points(&host_f32(&stage2.human.set.means));
-        let transfer =
-            KnnTransfer::new(&centres, &vertices, self.config.stage2.knn, &self.autodiff);
+        let transfer = KnnTransfer::new(
+            &centres,
+            &stage2.canonical,
+            self.config.stage2.knn,
+            &self.autodiff,
+        );
         stage2.binding = Binding {
             skin_weights: transfer.apply(weights),
             transfer,
