@@ -75,6 +75,12 @@ pub struct DensifyConfig {
     /// pairs closer than `kl_merge` (GauHuman: 0.4 and 0.1).
     pub kl_split: f64,
     pub kl_merge: f64,
+    /// ADC: prune-only decisions after these steps (HumanGaussian's late phase, no growth):
+    /// rows with opacity below `prune_only_min_opacity` or a largest scale above
+    /// `prune_only_max_scale` (world units) go.
+    pub prune_only_steps: Vec<usize>,
+    pub prune_only_min_opacity: f64,
+    pub prune_only_max_scale: f64,
 }
 
 impl Default for DensifyConfig {
@@ -98,6 +104,9 @@ impl Default for DensifyConfig {
             scale_reg: 0.01,
             kl_split: 0.4,
             kl_merge: 0.1,
+            prune_only_steps: Vec::new(),
+            prune_only_min_opacity: 0.005,
+            prune_only_max_scale: f64::MAX,
         }
     }
 }
@@ -312,6 +321,39 @@ pub(crate) fn replace_rows(
     *stats = DensityStats::new(set.len(), &device);
     *old_from_new = keep;
     old_from_new.extend(added_from);
+}
+
+/// A prune-only decision: rows with opacity below `min_opacity` or a largest scale above
+/// `max_scale` are removed (moments and statistics follow, `old_from_new` gets the lineage);
+/// returns how many went.
+pub fn prune_only(
+    set: &mut GaussianSet,
+    optimizer: &mut GaussianOptimizer,
+    stats: &mut DensityStats,
+    min_opacity: f64,
+    max_scale: f64,
+    old_from_new: &mut Vec<usize>,
+) -> usize {
+    let rows = set.to_rows();
+    let keep: Vec<usize> = (0..rows.len())
+        .filter(|&i| {
+            let largest = rows.scale(i).into_iter().fold(0.0f32, f32::max);
+            f64::from(rows.opacity(i)) >= min_opacity && f64::from(largest) <= max_scale
+        })
+        .collect();
+    let pruned = rows.len() - keep.len();
+    if pruned > 0 {
+        replace_rows(
+            set,
+            optimizer,
+            stats,
+            keep,
+            &GaussianRows::default(),
+            Vec::new(),
+            old_from_new,
+        );
+    }
+    pruned
 }
 
 /// 3DGS's opacity reset: every opacity capped at 0.01, its optimiser state restarted.

@@ -7,7 +7,7 @@
 
 use super::{
     DensifyConfig, DensifyReport, DensityStats, Strategy, adaptive_density_control, mcmc_noise,
-    mcmc_regulariser, mcmc_relocate, reset_opacity,
+    mcmc_regulariser, mcmc_relocate, prune_only, reset_opacity,
 };
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::gaussians::GaussianSet;
@@ -116,6 +116,20 @@ impl DensityStrategy for Adc {
         if self.config.resets_opacity_at(edit.step) {
             reset_opacity(edit.set, edit.optimizer);
             self.opacity_resets += 1;
+        }
+        if self.config.prune_only_steps.contains(&edit.step) {
+            let pruned = prune_only(
+                edit.set,
+                edit.optimizer,
+                &mut self.stats,
+                self.config.prune_only_min_opacity,
+                self.config.prune_only_max_scale,
+                edit.old_from_new,
+            );
+            report = Some(DensifyReport {
+                pruned,
+                ..DensifyReport::default()
+            });
         }
         report
     }

@@ -1,0 +1,416 @@
+//! The embedded default (spec §7, preset `portrait`): K synthetic identities on the built-in
+//! body in the canonical A-pose, rendered by the independent CPU mesh renderer — never by the
+//! splat rasterizer — as the mixture oracle's data ([`IdentityBank`]), the face crop of the
+//! face-loss identity from the fixed face camera (U7) with its face mask, the body's depth from
+//! that camera (D_m of U6), and the held-out views the avatar is scored on.
+//!
+//! Units: the prompted identity's canonical mesh is normalised as HumanGaussian does (bounding
+//! box centred at the origin, longest side 0.6 · 1.1¹⁰ = 1.5562); every identity shares that
+//! transform, and `metres_per_unit` returns to metres.
+
+use crate::cameras::orbit_camera;
+use crate::oracle::Targets;
+use burn::tensor::Device;
+use serde::{Deserialize, Serialize};
+use splatzoo_datasets::pose_sequence::PoseSequence;
+use splatzoo_datasets::posing::pose_frames_with_joints;
+use splatzoo_datasets::render::{
+    Albedo, Light, Lighting, MeshInstance, MeshRender, RenderSettings, Texture, render,
+};
+use splatzoo_datasets::synth::identity::Identity;
+use splatzoo_models::body::builtin_body;
+use splatzoo_rasterizer::Camera;
+
+/// Longest side of the normalised body (HumanGaussian: 0.6 · 1.1¹⁰).
+pub const BODY_EXTENT: f64 = 1.556_245_1;
+/// Texture size of each identity.
+const TEXTURE_SIZE: usize = 512;
+/// SMPL joint index of the head.
+const HEAD_JOINT: usize = 15;
+
+/// The canonical pose of the avatar (A10 of the spec).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum CanonicalPose {
+    /// HumanGaussian's A-pose: hips (0, ±0.2, ±0.1), shoulders (0, 0, ∓π/4).
+    APose,
+    /// The rest pose (the paper's Fig. 2 stage (c)).
+    TPose,
+}
+
+impl CanonicalPose {
+    /// The 72-D SMPL axis-angle pose.
+    pub fn axis_angle(self) -> [f64; 72] {
+        let mut pose = [0.0; 72];
+        if self == CanonicalPose::APose {
+            let mut set =
+                |joint: usize, v: [f64; 3]| pose[3 * joint..3 * joint + 3].copy_from_slice(&v);
+            set(1, [0.0, 0.2, 0.1]);
+            set(2, [0.0, -0.2, -0.1]);
+            set(16, [0.0, 0.0, -std::f64::consts::FRAC_PI_4]);
+            set(17, [0.0, 0.0, std::f64::consts::FRAC_PI_4]);
+        }
+        pose
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PortraitConfig {
+    /// Identities in the oracle's data set (K).
+    pub identities: usize,
+    /// Seed of the identities.
+    pub seed: u64,
+    /// The prompted identity (the prompt's label).
+    pub prompt: usize,
+    /// The negative prompt's identity.
+    pub negative: usize,
+    /// Whose face the face crop shows (the prompted identity unless a face swap is wanted,
+    /// the spec's T7).
+    pub face_identity: usize,
+    pub canonical: CanonicalPose,
+    /// Side of the face crop and of the face view, pixels.
+    pub face_size: u32,
+    /// Distance of the face camera from the face centroid (d_f, normalised units).
+    pub face_distance: f64,
+    pub face_fovy_degrees: f64,
+    /// Held-out views: this many azimuths at each of `eval_elevations`.
+    pub eval_azimuths: usize,
+    pub eval_elevations: Vec<f64>,
+    pub eval_distance: f64,
+    pub eval_fovy_degrees: f64,
+    pub eval_size: u32,
+}
+
+impl Default for PortraitConfig {
+    fn default() -> Self {
+        Self {
+            identities: 4,
+            seed: 7,
+            prompt: 0,
+            negative: 1,
+            face_identity: 0,
+            canonical: CanonicalPose::APose,
+            face_size: 64,
+            face_distance: 0.5,
+            face_fovy_degrees: 40.0,
+            eval_azimuths: 16,
+            eval_elevations: vec![-15.0, 0.0, 20.0],
+            eval_distance: 1.8,
+            eval_fovy_degrees: 50.0,
+            eval_size: 96,
+        }
+    }
+}
+
+impl PortraitConfig {
+    pub fn validate(&self) -> Result<(), String> {
+        let k = self.identities;
+        if k == 0 || self.prompt >= k || self.negative >= k || self.face_identity >= k {
+            return Err(format!(
+                "data: prompt {}, negative {} and face_identity {} must be below identities {k} (> 0)",
+                self.prompt, self.negative, self.face_identity
+            ));
+        }
+        if self.face_size < 8 || self.eval_size < 8 {
+            return Err("data: face_size and eval_size must be at least 8 pixels".into());
+        }
+        if self.eval_azimuths == 0 || self.eval_elevations.is_empty() {
+            return Err("data: at least one held-out azimuth and elevation".into());
+        }
+        Ok(())
+    }
+}
+
+/// One identity's canonical mesh and texture, in normalised units.
+#[derive(Debug, Clone)]
+pub struct IdentityMesh {
+    pub identity: Identity,
+    /// `[V]` normalised canonical vertices.
+    pub vertices: Vec<[f32; 3]>,
+    pub texture: Texture,
+}
+
+/// The identities seen from any camera: the oracle's [`Targets`].
+#[derive(Debug, Clone)]
+pub struct IdentityBank {
+    pub identities: Vec<IdentityMesh>,
+    pub faces: Vec<[u32; 3]>,
+    pub uv_coords: Vec<[f32; 2]>,
+    pub uv_faces: Vec<[u32; 3]>,
+    pub lighting: Lighting,
+    pub settings: RenderSettings,
+}
+
+/// The light every identity is photographed under: ambient plus a frontal key light, no
+/// shadows (a studio portrait).
+pub fn studio_lighting() -> Lighting {
+    Lighting {
+        ambient: [0.55; 3],
+        environment: None,
+        light: Some(Light::Directional {
+            direction: [-0.3, -0.5, -1.0],
+            color: [0.5; 3],
+        }),
+        shadow_resolution: None,
+    }
+}
+
+impl IdentityBank {
+    pub fn render(&self, label: usize, camera: &Camera) -> MeshRender {
+        let mesh = &self.identities[label];
+        let instance = MeshInstance {
+            positions: &mesh.vertices,
+            faces: &self.faces,
+            albedo: Albedo::Textured {
+                coords: &self.uv_coords,
+                corners: &self.uv_faces,
+                texture: &mesh.texture,
+            },
+            label: 1,
+            smooth: true,
+        };
+        render(&[instance], camera, &self.lighting, &self.settings)
+    }
+}
+
+/// A mesh render as the model's two branches, `[3, H, W]` RGB and `[1, H, W]` depth, each
+/// mapped from [0, 1] to [−1, 1]; depth is camera z on the body (0 on the background)
+/// normalised by its image's min and max (Eq. 4 as HumanGaussian feeds it).
+pub fn render_to_branches(r: &MeshRender) -> Vec<Vec<f32>> {
+    let n = r.width * r.height;
+    let mut rgb = vec![0.0f32; 3 * n];
+    for (p, c) in r.color.iter().enumerate() {
+        for k in 0..3 {
+            rgb[k * n + p] = 2.0 * c[k].clamp(0.0, 1.0) - 1.0;
+        }
+    }
+    let depth: Vec<f32> = r
+        .depth
+        .iter()
+        .zip(&r.coverage)
+        .map(|(d, c)| if d.is_finite() { d * c } else { 0.0 })
+        .collect();
+    vec![
+        rgb,
+        normalised_depth(&depth)
+            .iter()
+            .map(|d| 2.0 * d - 1.0)
+            .collect(),
+    ]
+}
+
+/// `(d − min) / (max − min)` over one image (0 where the image is flat).
+pub fn normalised_depth(depth: &[f32]) -> Vec<f32> {
+    let lo = depth.iter().copied().fold(f32::INFINITY, f32::min);
+    let hi = depth.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let range = hi - lo;
+    depth
+        .iter()
+        .map(|d| if range > 1e-8 { (d - lo) / range } else { 0.0 })
+        .collect()
+}
+
+impl Targets for IdentityBank {
+    fn count(&self) -> usize {
+        self.identities.len()
+    }
+
+    fn target(&self, label: usize, camera: &Camera) -> Vec<Vec<f32>> {
+        render_to_branches(&self.render(label, camera))
+    }
+}
+
+/// The whole synthetic portrait capture.
+#[derive(Debug, Clone)]
+pub struct PortraitCapture {
+    pub config: PortraitConfig,
+    pub bank: IdentityBank,
+    /// The avatar's canonical mesh (the prompted identity's body, normalised): `[V, 3]`.
+    pub canonical: Vec<[f32; 3]>,
+    /// `metres = units × metres_per_unit` (plus the centre).
+    pub metres_per_unit: f64,
+    /// The head joint's height in normalised units (A13).
+    pub head_height: f64,
+    pub face_camera: Camera,
+    /// `[3, S, S]` face crop in [0, 1] (background black) and `[S, S]` face mask.
+    pub face_crop: Vec<f32>,
+    pub face_mask: Vec<bool>,
+    /// `[S, S]` the canonical body's depth from the face camera (∞ off the body): D_m of U6.
+    pub face_depth: Vec<f32>,
+    /// Held-out cameras and the prompted identity's renders there (`[H, W]` of RGB).
+    pub eval_cameras: Vec<Camera>,
+    /// `[identity][view]` held-out renders in [0, 1], `[3, H, W]`.
+    pub eval_targets: Vec<Vec<Vec<f32>>>,
+}
+
+fn posed_canonical(betas: &[f64], pose: &[f64; 72], device: &Device) -> (Vec<[f32; 3]>, [f32; 3]) {
+    let seq = PoseSequence {
+        joints: 24,
+        poses: pose.to_vec(),
+        translations: vec![0.0; 3],
+        betas: betas.to_vec(),
+        shape_count: betas.len(),
+        fps: None,
+    };
+    let frame = pose_frames_with_joints(&builtin_body().model, &seq, device)
+        .pop()
+        .expect("one frame");
+    (frame.vertices, frame.joints[HEAD_JOINT])
+}
+
+/// `[3, H, W]` in [0, 1] from a render's colours.
+pub fn planar_rgb(r: &MeshRender) -> Vec<f32> {
+    let n = r.width * r.height;
+    let mut out = vec![0.0; 3 * n];
+    for (p, c) in r.color.iter().enumerate() {
+        for k in 0..3 {
+            out[k * n + p] = c[k].clamp(0.0, 1.0);
+        }
+    }
+    out
+}
+
+impl PortraitCapture {
+    pub fn build(config: &PortraitConfig, device: &Device) -> Self {
+        let body = builtin_body();
+        let pose = config.canonical.axis_angle();
+        let identities: Vec<Identity> = (0..config.identities)
+            .map(|k| Identity::sample(config.seed.wrapping_mul(1000).wrapping_add(k as u64)))
+            .collect();
+        let posed: Vec<(Vec<[f32; 3]>, [f32; 3])> = identities
+            .iter()
+            .map(|id| posed_canonical(&id.betas, &pose, device))
+            .collect();
+        // HumanGaussian's normalisation, from the prompted identity's mesh.
+        let (reference, head) = &posed[config.prompt];
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for p in reference {
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+        }
+        let centre = [0, 1, 2].map(|c| 0.5 * (lo[c] + hi[c]));
+        let longest = (0..3).map(|c| hi[c] - lo[c]).fold(0.0f32, f32::max);
+        let scale = BODY_EXTENT as f32 / longest;
+        let normalise = |p: &[f32; 3]| [0, 1, 2].map(|c| (p[c] - centre[c]) * scale);
+        let head_height = f64::from(normalise(head)[1]);
+        let faces: Vec<[u32; 3]> = body
+            .model
+            .faces
+            .chunks(3)
+            .map(|f| [f[0], f[1], f[2]])
+            .collect();
+        let bank = IdentityBank {
+            identities: identities
+                .iter()
+                .zip(&posed)
+                .map(|(identity, (vertices, _))| IdentityMesh {
+                    texture: identity.bake_texture(body, TEXTURE_SIZE),
+                    identity: identity.clone(),
+                    vertices: vertices.iter().map(normalise).collect(),
+                })
+                .collect(),
+            faces,
+            uv_coords: body.uv.coords.chunks(2).map(|c| [c[0], c[1]]).collect(),
+            uv_faces: body
+                .uv
+                .faces
+                .chunks(3)
+                .map(|f| [f[0], f[1], f[2]])
+                .collect(),
+            lighting: studio_lighting(),
+            settings: RenderSettings {
+                background: [0.0; 3],
+                supersample: 1,
+            },
+        };
+        let canonical = bank.identities[config.prompt].vertices.clone();
+
+        // U7: the face camera looks at the face-region centroid from d_f along +z.
+        let mut centroid = [0.0f64; 3];
+        let mut count = 0.0f64;
+        for (v, on) in canonical.iter().zip(&body.face_region) {
+            if *on {
+                for c in 0..3 {
+                    centroid[c] += f64::from(v[c]);
+                }
+                count += 1.0;
+            }
+        }
+        let centroid = centroid.map(|c| c / count.max(1.0));
+        let face_camera = orbit_camera(
+            centroid,
+            0.0,
+            0.0,
+            config.face_distance,
+            config.face_fovy_degrees,
+            config.face_size,
+        );
+        let face_render = bank.render(config.face_identity, &face_camera);
+        let face_crop = planar_rgb(&face_render);
+        let indicator: Vec<[f32; 3]> = body
+            .face_region
+            .iter()
+            .map(|&on| if on { [1.0; 3] } else { [0.0; 3] })
+            .collect();
+        let mask_render = render(
+            &[MeshInstance {
+                positions: &canonical,
+                faces: &bank.faces,
+                albedo: Albedo::PerVertex(&indicator),
+                label: 1,
+                smooth: true,
+            }],
+            &face_camera,
+            &Lighting {
+                ambient: [1.0; 3],
+                environment: None,
+                light: None,
+                shadow_resolution: None,
+            },
+            &bank.settings,
+        );
+        let face_mask = mask_render.color.iter().map(|c| c[0] > 0.5).collect();
+        let face_depth = mask_render.depth.clone();
+
+        let mut eval_cameras = Vec::new();
+        for &el in &config.eval_elevations {
+            for a in 0..config.eval_azimuths {
+                // Offset by half a step from the training azimuth grid's edges.
+                let az = -180.0 + 360.0 * (a as f64 + 0.5) / config.eval_azimuths as f64;
+                eval_cameras.push(orbit_camera(
+                    [0.0; 3],
+                    az,
+                    el,
+                    config.eval_distance,
+                    config.eval_fovy_degrees,
+                    config.eval_size,
+                ));
+            }
+        }
+        let eval_targets = (0..config.identities)
+            .map(|k| {
+                eval_cameras
+                    .iter()
+                    .map(|c| planar_rgb(&bank.render(k, c)))
+                    .collect()
+            })
+            .collect();
+        Self {
+            config: config.clone(),
+            bank,
+            canonical,
+            metres_per_unit: 1.0 / f64::from(scale),
+            head_height,
+            face_camera,
+            face_crop,
+            face_mask,
+            face_depth,
+            eval_cameras,
+            eval_targets,
+        }
+    }
+}

@@ -1,0 +1,73 @@
+//! What a finished run writes into its directory: the canonical avatar as an INRIA
+//! `point_cloud.ply` (normalised units), a turntable GIF (avatar | prompted identity), the
+//! face view beside the face crop, and the final scores for `metrics.json`.
+
+use crate::cameras::orbit_camera;
+use crate::error::AagError;
+use crate::trainer::{AagTrainer, planar_to_tensor, render_views};
+use splatzoo_train::harness::Say;
+use splatzoo_train::images::{side_by_side, srgb_image, write_gif, write_png};
+use splatzoo_train::ply::write_ply;
+use std::path::Path;
+
+/// Turntable frames.
+const TURNTABLE: usize = 24;
+
+pub fn write_outputs(
+    trainer: &AagTrainer,
+    run: &Path,
+    say: &mut dyn Say,
+) -> Result<serde_json::Map<String, serde_json::Value>, AagError> {
+    let capture = &trainer.capture;
+    let set = &trainer.node.set;
+    let device = set.means.device();
+    let ply = run.join("point_cloud.ply");
+    write_ply(&ply, set).map_err(splatzoo_train::TrainError::from)?;
+    let splats = set.splats();
+    let size = capture.config.eval_size;
+    let mut frames = Vec::with_capacity(TURNTABLE);
+    for k in 0..TURNTABLE {
+        let az = -180.0 + 360.0 * k as f64 / TURNTABLE as f64;
+        let camera = orbit_camera(
+            [0.0; 3],
+            az,
+            10.0,
+            capture.config.eval_distance,
+            capture.config.eval_fovy_degrees,
+            size,
+        );
+        let render = render_views(&splats, &[camera])?.remove(0);
+        let truth = crate::data::planar_rgb(&capture.bank.render(capture.config.prompt, &camera));
+        let truth = planar_to_tensor(&truth, size as usize, &device);
+        frames.push(side_by_side(&[
+            srgb_image(&render.color.clamp(0.0, 1.0)),
+            srgb_image(&truth),
+        ]));
+    }
+    let dataset = |e| AagError::Train(splatzoo_train::TrainError::Dataset(e));
+    write_gif(&run.join("turntable.gif"), &frames, 12).map_err(dataset)?;
+    let face = render_views(&splats, &[capture.face_camera])?.remove(0);
+    let crop = planar_to_tensor(
+        &capture.face_crop,
+        capture.config.face_size as usize,
+        &device,
+    );
+    write_png(
+        &run.join("face.png"),
+        &side_by_side(&[srgb_image(&face.color.clamp(0.0, 1.0)), srgb_image(&crop)]),
+    )
+    .map_err(dataset)?;
+    say.say(&format!(
+        "wrote {} ({} Gaussians), turntable.gif, face.png",
+        ply.display(),
+        set.len()
+    ));
+    let scores = trainer.evaluate()?;
+    let mut summary = serde_json::Map::new();
+    summary.insert(
+        "aag".into(),
+        serde_json::to_value(&scores).expect("plain data"),
+    );
+    summary.insert("metres_per_unit".into(), capture.metres_per_unit.into());
+    Ok(summary)
+}

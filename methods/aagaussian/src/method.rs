@@ -1,0 +1,216 @@
+//! AAGaussian as one harness [`Method`]: the synthetic portrait capture and its mixture
+//! oracle, the trainer's steps, the synthetic protocol's scores, a checkpoint that resumes
+//! bit-exactly on the CPU (the capture is rebuilt from its seed; the avatar, its optimiser,
+//! density statistics and both random states are stored) and the exports.
+
+use crate::config::AagConfig;
+use crate::data::PortraitCapture;
+use crate::error::AagError;
+use crate::trainer::{AVATAR, AagTrainer, mixture_oracle};
+use burn::tensor::Device;
+use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_train::TrainError;
+use splatzoo_train::checkpoint::Checkpoint;
+use splatzoo_train::harness::{Evaluation, Method, Say, Scores, StepReport};
+use splatzoo_train::lpips::Lpips;
+use splatzoo_train::scene::SceneNode;
+use std::path::Path;
+
+/// The trainer's random state in checkpoints (cameras, t, noise, the face-view draw).
+const RNG: &str = "aag.rng";
+
+/// Shorthands for the ablations (each one `--set` line).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct AagArgs {
+    /// Without the facial rendering loss (Fig. 5b).
+    #[arg(long)]
+    pub no_face: bool,
+    /// The face loss ×100 (Fig. 5d).
+    #[arg(long)]
+    pub face_x100: bool,
+    /// Without the line-of-sight term (U6).
+    #[arg(long)]
+    pub no_line_of_sight: bool,
+    /// Without the depth branch (λ₂ = 0).
+    #[arg(long)]
+    pub no_depth: bool,
+    /// Start from a random box instead of the body prior (§3.2's comparison).
+    #[arg(long)]
+    pub box_init: bool,
+    /// Classic classifier-free guidance instead of ANPG.
+    #[arg(long)]
+    pub cfg: bool,
+}
+
+pub struct Aag {
+    pub trainer: AagTrainer,
+    decisions: Vec<String>,
+}
+
+impl Aag {
+    /// A fresh run with the mixture oracle.
+    pub fn assemble(config: AagConfig, device: &Device) -> Result<Self, AagError> {
+        device.seed(config.seed);
+        let capture = PortraitCapture::build(&config.data, device);
+        let oracle = mixture_oracle(&config, &capture);
+        let data = &config.data;
+        let decisions = vec![
+            format!(
+                "guidance: the mixture oracle over {} synthetic identities (prompt = identity {}, \
+                 negative = identity {}, data noise {}), {:?} schedule, {:?} prediction, {} \
+                 branch(es) — an exact denoiser standing in for a text-to-image model, not \
+                 text-to-3D",
+                data.identities,
+                data.prompt,
+                data.negative,
+                config.oracle.data_noise,
+                config.oracle.schedule,
+                config.oracle.prediction,
+                config.oracle.branches
+            ),
+            format!(
+                "body prior: the built-in body with the prompted identity's true shape in the \
+                 {:?} canonical pose (no keypoint fit yet), normalised to {:.4} m per unit",
+                data.canonical, capture.metres_per_unit
+            ),
+            format!(
+                "face loss: crop of identity {} from the fixed face camera, weight {} from step \
+                 {}, line of sight ×{}",
+                data.face_identity,
+                config.face.weight,
+                config.face.start,
+                config.face.line_of_sight
+            ),
+        ];
+        let trainer = AagTrainer::new(config, capture, Box::new(oracle), &device.clone());
+        Ok(Self { trainer, decisions })
+    }
+}
+
+impl Method for Aag {
+    const NAME: &'static str = "aag";
+    const FORMAT: &'static str = "splatzoo-aag-1";
+    const ABOUT: &'static str =
+        "AAGaussian: an avatar from a portrait and a prompt by dual-branch score distillation";
+    type Config = AagConfig;
+    type Args = AagArgs;
+
+    fn overrides(args: &AagArgs) -> Vec<String> {
+        let mut sets = Vec::new();
+        let mut on = |flag: bool, set: &str| {
+            if flag {
+                sets.push(set.to_owned());
+            }
+        };
+        on(args.no_face, "face.weight=0.0");
+        on(args.face_x100, "face.weight=100.0");
+        on(args.no_line_of_sight, "face.line_of_sight=0.0");
+        on(args.no_depth, "sds.lambda_depth=0.0");
+        on(args.box_init, "init=\"box\"");
+        on(args.cfg, "sds.guidance=\"cfg\"");
+        sets
+    }
+
+    fn new(config: AagConfig, device: &Device) -> Result<Self, TrainError> {
+        Ok(Self::assemble(config, device)?)
+    }
+
+    fn resume(
+        config: AagConfig,
+        checkpoint: &Checkpoint,
+        device: &Device,
+    ) -> Result<Self, TrainError> {
+        let mut method = Self::assemble(config, device)?;
+        let trainer = &mut method.trainer;
+        trainer.node.load(checkpoint, AVATAR, device)?;
+        trainer.node.optimizer.config.beta2 = trainer.config.adam_beta2;
+        trainer.rng = Rng(checkpoint.meta_parsed(RNG)?);
+        trainer.step = checkpoint.meta_parsed("step")?;
+        Ok(method)
+    }
+
+    fn steps(&self) -> usize {
+        self.trainer.step
+    }
+
+    fn describe(&self) -> String {
+        let c = &self.trainer.config;
+        format!(
+            "{} Gaussians on the canonical body, B = {} views of {}², {} identities, face crop {}²",
+            self.trainer.node.gaussians(),
+            c.batch,
+            c.render_size,
+            c.data.identities,
+            c.data.face_size
+        )
+    }
+
+    fn decisions(&self) -> Vec<String> {
+        self.decisions.clone()
+    }
+
+    fn step(&mut self) -> Result<StepReport, TrainError> {
+        let record = self.trainer.train_step()?;
+        if !record.loss.is_finite() {
+            return Err(TrainError::NonFinite {
+                step: self.trainer.step,
+                value: record.loss,
+            });
+        }
+        let mut notes = Vec::new();
+        if let Some(d) = &record.density {
+            notes.push(format!(
+                "density after step {}: +{} cloned, +{} split, −{} pruned → {} Gaussians",
+                self.trainer.step,
+                d.cloned,
+                d.split,
+                d.pruned,
+                self.trainer.node.gaussians()
+            ));
+        }
+        let c = &self.trainer.config;
+        if self.trainer.step == c.sds.timesteps.anneal_step {
+            let (lo, hi) = c.sds.timesteps.at(self.trainer.step);
+            notes.push(format!("t annealed: now drawn from {{{lo}..{hi}}}"));
+        }
+        if self.trainer.step == c.face.start && c.face.weight > 0.0 {
+            notes.push("face loss and zoomed views on".into());
+        }
+        if record.nonfinite > 0 {
+            notes.push(format!("{} non-finite SDS values zeroed", record.nonfinite));
+        }
+        Ok(StepReport {
+            loss: record.loss,
+            note: (!notes.is_empty()).then(|| notes.join("; ")),
+        })
+    }
+
+    fn evaluate(&self, _lpips: Option<&Lpips>) -> Result<Evaluation, TrainError> {
+        let scores = self.trainer.evaluate()?;
+        Ok(Evaluation::new(
+            self.trainer.step,
+            Scores {
+                psnr: scores.psnr,
+                ssim: scores.ssim,
+                lpips: None,
+            },
+        )
+        .with("scores", "held-out views of the prompted identity")
+        .with("aag", serde_json::to_value(&scores).expect("plain data")))
+    }
+
+    fn checkpoint(&self) -> Checkpoint {
+        let mut c = Checkpoint::default();
+        self.trainer.node.save(&mut c, AVATAR);
+        c.put_meta(RNG, self.trainer.rng.0);
+        c
+    }
+
+    fn finish(
+        &self,
+        run: &Path,
+        say: &mut dyn Say,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError> {
+        Ok(crate::export::write_outputs(&self.trainer, run, say)?)
+    }
+}
