@@ -1,5 +1,5 @@
-//! Every knob of a `train-aag` run, tagged in doc comments [P] paper, [H] HumanGaussian (the
-//! base pipeline the paper builds on), [C] ours. The paper's schedule is 3600 steps; the
+//! Every knob of a `train-aag` run, tagged in doc comments \[P\] paper, \[H\] HumanGaussian (the
+//! base pipeline the paper builds on), \[C\] ours. The paper's schedule is 3600 steps; the
 //! default compresses every step number by 3 to fit a CPU budget (1200 steps: face loss and
 //! zoomed views from 400, annealing at 500, densify at 200…600, prune-only at 900 and 1000);
 //! `configs/paper.toml` holds the §4 values.
@@ -33,7 +33,7 @@ pub struct OracleConfig {
 }
 
 impl Default for OracleConfig {
-    /// [H]'s zero-SNR SD-2 schedule; ε-prediction; s = 0.1 [C].
+    /// \[H\]'s zero-SNR SD-2 schedule; ε-prediction; s = 0.1 \[C\].
     fn default() -> Self {
         Self {
             schedule: ScheduleKind::ZeroSnr,
@@ -48,18 +48,18 @@ impl Default for OracleConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct FaceConfig {
-    /// λ_f after `start` (0 before) [P: 1; Fig. 5d: 100].
+    /// λ_f after `start` (0 before) \[P: 1; Fig. 5d: 100\].
     pub weight: f64,
-    /// Optimiser step the term starts at [P: 1200 of 3600].
+    /// Optimiser step the term starts at \[P: 1200 of 3600\].
     pub start: usize,
-    /// Chance per step of the face view on top of the batch [C: 0.25].
+    /// Chance per step of the face view on top of the batch \[C: 0.25\].
     pub probability: f64,
-    /// κ of the centre weights [C: 0.25].
+    /// κ of the centre weights \[C: 0.25\].
     pub kappa: f64,
     pub norm: FaceNorm,
-    /// λ_los of U6 [C: 1].
+    /// λ_los of U6 \[C: 1\].
     pub line_of_sight: f64,
-    /// τ of U6, normalised units [C: 0.02].
+    /// τ of U6, normalised units \[C: 0.02\].
     pub margin: f64,
 }
 
@@ -87,12 +87,12 @@ pub struct AagConfig {
     pub lpips_weights: Option<PathBuf>,
     pub seed: u64,
     pub data: PortraitConfig,
-    /// Starting Gaussians [P: 100 000; C: fewer on a CPU].
+    /// Starting Gaussians \[P: 100 000; C: fewer on a CPU\].
     pub gaussians: usize,
     pub init: InitKind,
-    /// Views per step B [P: 6].
+    /// Views per step B \[P: 6\].
     pub batch: usize,
-    /// Side of each SDS render, pixels [P: 1024 → 512 → 64² latents; C: pixel space].
+    /// Side of each SDS render, pixels \[P: 1024 → 512 → 64² latents; C: pixel space\].
     pub render_size: u32,
     pub oracle: OracleConfig,
     pub sds: SdsConfig,
@@ -101,10 +101,10 @@ pub struct AagConfig {
     /// λ₄ of Eq. 6 and what U4 penalises.
     pub sparsity: f64,
     pub sparsity_kind: SparsityKind,
-    /// Scene extent for the position rate and ADC sizes [H: spatial scale 4].
+    /// Scene extent for the position rate and ADC sizes \[H: spatial scale 4\].
     pub extent: f64,
     pub rates: LearningRates,
-    /// Adam β₂ [H: 0.99] (β₁ 0.9, ε 1e-15).
+    /// Adam β₂ \[H: 0.99\] (β₁ 0.9, ε 1e-15).
     pub adam_beta2: f64,
     pub densify: DensifyConfig,
 }
@@ -140,7 +140,7 @@ impl Default for AagConfig {
             sparsity: 1.0,
             sparsity_kind: SparsityKind::Depth,
             extent: 4.0,
-            // [P] rates; μ: 5e-5 × extent 4 = 2e-4 decaying towards 1e-4 over 30k steps
+            // \[P\] rates; μ: 5e-5 × extent 4 = 2e-4 decaying towards 1e-4 over 30k steps
             // (GaussianDreamer), i.e. to 1.84e-4 by the paper's step 3600.
             rates: LearningRates {
                 means_start: 5e-5,
@@ -152,7 +152,7 @@ impl Default for AagConfig {
                 sh_rest: 0.0,
             },
             adam_beta2: 0.99,
-            // [H] densify 300 < s < 2100 every 300, compressed; prune-only at 2700, 3000.
+            // \[H\] densify 300 < s < 2100 every 300, compressed; prune-only at 2700, 3000.
             densify: DensifyConfig {
                 strategy: Strategy::Adc,
                 start: 100,
@@ -165,7 +165,7 @@ impl Default for AagConfig {
                 opacity_reset_every: 0,
                 prune_only_steps: vec![900, 1000],
                 prune_only_min_opacity: 0.005,
-                // [H] 0.008 at 100k Gaussians, scaled with the spacing √(100k / N) [C].
+                // \[H\] 0.008 at 100k Gaussians, scaled with the spacing √(100k / N) \[C\].
                 prune_only_max_scale: 0.018,
                 ..DensifyConfig::default()
             },

@@ -1,7 +1,7 @@
 //! The seam between score distillation and a denoising model: [`ScoreModel`] is what any
 //! ε- or v-predictor plugs into (the in-project oracles of [`crate::oracle`] today; an ONNX UNet
 //! run in tract is the real-model adapter of the spec's §3), and the SDS driver
-//! ([`crate::sds::Sds`]) is written against it alone.
+//! ([`crate::sds::SdsConfig::guidance`]) is written against it alone.
 //!
 //! Models see host arrays ([`LatentBatch`]): a denoiser is called without gradient (SDS stops
 //! the gradient at the model, Eq. 3), and tract and the oracles work on host memory anyway.
