@@ -193,8 +193,8 @@ impl SdsConfig {
             .zip(&noise)
             .map(|(x, e)| {
                 let mut out = x.clone();
-                for i in 0..b {
-                    let (a, s) = (schedule.alpha(t[i]), schedule.sigma(t[i]));
+                for (i, &ti) in t.iter().enumerate() {
+                    let (a, s) = (schedule.alpha(ti), schedule.sigma(ti));
                     for (o, (xv, ev)) in out
                         .item_mut(i)
                         .iter_mut()
@@ -243,10 +243,10 @@ impl SdsConfig {
         for (k, out) in outputs.iter().enumerate() {
             let mut g = LatentBatch::zeros(z[k].shape);
             let n = g.item_len();
-            for i in 0..b {
-                let (a, s) = (schedule.alpha(t[i]), schedule.sigma(t[i]));
+            for (i, &ti) in t.iter().enumerate() {
+                let (a, s) = (schedule.alpha(ti), schedule.sigma(ti));
                 let w = match self.weighting {
-                    Weighting::Sds => 1.0 - schedule.alpha_bar(t[i]),
+                    Weighting::Sds => 1.0 - schedule.alpha_bar(ti),
                     Weighting::Uniform => 1.0,
                 };
                 // ε of each prompt row for this item (U2).
@@ -273,7 +273,7 @@ impl SdsConfig {
                     Guidance::Anpg => (0..n)
                         .map(|j| {
                             let (y, neg, u) = (rows_eps[0][j], rows_eps[1][j], rows_eps[2][j]);
-                            let delta_d = if t[i] >= self.anpg_switch {
+                            let delta_d = if ti >= self.anpg_switch {
                                 u - neg
                             } else if self.hg_compat {
                                 u

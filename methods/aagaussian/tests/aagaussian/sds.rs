@@ -62,7 +62,7 @@ fn point_mass_sds_is_a_weighted_l2_without_noise() {
     let config = plain();
     for step in 0..20 {
         let out = config
-            .guidance(&model, &[z.clone()], &[view()], step, &mut rng)
+            .guidance(&model, std::slice::from_ref(&z), &[view()], step, &mut rng)
             .expect("guidance");
         let t = out.t[0];
         let s = NoiseSchedule::sd2();
@@ -98,7 +98,7 @@ fn v_and_epsilon_prediction_agree() {
     let eps = oracle(y.clone(), Prediction::Epsilon, schedule.clone());
     let v = oracle(y, Prediction::V, schedule);
     let a = config
-        .guidance(&eps, &[z.clone()], &[view()], 0, &mut Rng(seed))
+        .guidance(&eps, std::slice::from_ref(&z), &[view()], 0, &mut Rng(seed))
         .expect("ε");
     let b = config
         .guidance(&v, &[z], &[view()], 0, &mut Rng(seed))
