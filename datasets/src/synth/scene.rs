@@ -71,7 +71,8 @@ pub fn standing_height(betas: &[f64], device: &Device) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-fn posed_once(betas: &[f64], pose: &[f64; 72], device: &Device) -> PosedFrame {
+/// The built-in body with shape `betas` posed once by the 72-D SMPL `pose` (no translation).
+pub fn posed_once(betas: &[f64], pose: &[f64; 72], device: &Device) -> PosedFrame {
     let seq = PoseSequence {
         joints: 24,
         poses: pose.to_vec(),

@@ -12,12 +12,11 @@ use crate::cameras::orbit_camera;
 use crate::oracle::Targets;
 use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
-use splatzoo_datasets::pose_sequence::PoseSequence;
-use splatzoo_datasets::posing::pose_frames_with_joints;
 use splatzoo_datasets::render::{
     Albedo, Light, Lighting, MeshInstance, MeshRender, RenderSettings, Texture, render,
 };
 use splatzoo_datasets::synth::identity::Identity;
+use splatzoo_datasets::synth::scene::posed_once;
 use splatzoo_models::body::builtin_body;
 use splatzoo_rasterizer::Camera;
 
@@ -244,21 +243,6 @@ pub struct PortraitCapture {
     pub eval_targets: Vec<Vec<Vec<f32>>>,
 }
 
-fn posed_canonical(betas: &[f64], pose: &[f64; 72], device: &Device) -> (Vec<[f32; 3]>, [f32; 3]) {
-    let seq = PoseSequence {
-        joints: 24,
-        poses: pose.to_vec(),
-        translations: vec![0.0; 3],
-        betas: betas.to_vec(),
-        shape_count: betas.len(),
-        fps: None,
-    };
-    let frame = pose_frames_with_joints(&builtin_body().model, &seq, device)
-        .pop()
-        .expect("one frame");
-    (frame.vertices, frame.joints[HEAD_JOINT])
-}
-
 /// `[3, H, W]` in [0, 1] from a render's colours.
 pub fn planar_rgb(r: &MeshRender) -> Vec<f32> {
     let n = r.width * r.height;
@@ -280,7 +264,10 @@ impl PortraitCapture {
             .collect();
         let posed: Vec<(Vec<[f32; 3]>, [f32; 3])> = identities
             .iter()
-            .map(|id| posed_canonical(&id.betas, &pose, device))
+            .map(|id| {
+                let frame = posed_once(&id.betas, &pose, device);
+                (frame.vertices, frame.joints[HEAD_JOINT])
+            })
             .collect();
         // HumanGaussian's normalisation, from the prompted identity's mesh.
         let (reference, head) = &posed[config.prompt];
