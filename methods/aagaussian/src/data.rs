@@ -157,9 +157,14 @@ pub fn studio_lighting() -> Lighting {
 
 impl IdentityBank {
     pub fn render(&self, label: usize, camera: &Camera) -> MeshRender {
+        self.render_posed(label, &self.identities[label].vertices, camera)
+    }
+
+    /// Identity `label`'s textured mesh with its vertices moved to `vertices` (a pose).
+    pub fn render_posed(&self, label: usize, vertices: &[[f32; 3]], camera: &Camera) -> MeshRender {
         let mesh = &self.identities[label];
         let instance = MeshInstance {
-            positions: &mesh.vertices,
+            positions: vertices,
             faces: &self.faces,
             albedo: Albedo::Textured {
                 coords: &self.uv_coords,
@@ -229,6 +234,8 @@ pub struct PortraitCapture {
     pub canonical: Vec<[f32; 3]>,
     /// `metres = units × metres_per_unit` (plus the centre).
     pub metres_per_unit: f64,
+    /// The body-space point that normalisation moves to the origin (metres).
+    pub centre: [f32; 3],
     /// The head joint's height in normalised units (A13).
     pub head_height: f64,
     pub face_camera: Camera,
@@ -256,6 +263,18 @@ pub fn planar_rgb(r: &MeshRender) -> Vec<f32> {
 }
 
 impl PortraitCapture {
+    /// Identity `label`'s mesh posed by the 72-D SMPL `pose` (no translation), in the
+    /// capture's normalised units.
+    pub fn posed_vertices(&self, label: usize, pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
+        let betas = &self.bank.identities[label].identity.betas;
+        let scale = (1.0 / self.metres_per_unit) as f32;
+        posed_once(betas, pose, device)
+            .vertices
+            .iter()
+            .map(|p| [0, 1, 2].map(|c| (p[c] - self.centre[c]) * scale))
+            .collect()
+    }
+
     pub fn build(config: &PortraitConfig, device: &Device) -> Self {
         let body = builtin_body();
         let pose = config.canonical.axis_angle();
@@ -391,6 +410,7 @@ impl PortraitCapture {
             bank,
             canonical,
             metres_per_unit: 1.0 / f64::from(scale),
+            centre,
             head_height,
             face_camera,
             face_crop,

@@ -1,7 +1,9 @@
 //! What a finished run writes into its directory: the canonical avatar as an INRIA
 //! `point_cloud.ply` (normalised units), a turntable GIF (avatar | prompted identity), the
-//! face view beside the face crop, and the final scores for `metrics.json`.
+//! face view beside the face crop, the final scores for `metrics.json`, and the avatar
+//! animated by the built-in motion (`animation/`).
 
+use crate::animate::{FrameOutput, animate, builtin_motion};
 use crate::cameras::orbit_camera;
 use crate::error::AagError;
 use crate::trainer::{AagTrainer, planar_to_tensor, render_views};
@@ -69,5 +71,44 @@ pub fn write_outputs(
         serde_json::to_value(&scores).expect("plain data"),
     );
     summary.insert("metres_per_unit".into(), capture.metres_per_unit.into());
+    let animation = &trainer.config.animation;
+    if animation.frames > 0 {
+        let dir = run.join("animation");
+        std::fs::create_dir_all(&dir).map_err(|e| {
+            dataset(splatzoo_datasets::DatasetError::file(
+                &dir,
+                format!("cannot create ({e})"),
+            ))
+        })?;
+        let motion = builtin_motion(animation.frames, animation.fps);
+        let scores = animate(
+            set,
+            capture,
+            &motion,
+            animation,
+            Some(FrameOutput {
+                dir: &dir,
+                ply: true,
+            }),
+        )?;
+        say.say(&format!(
+            "animated {} frames (built-in walk then wave): PSNR to the identity posed alike \
+             {:.2} dB mean, {:.2} dB worst frame, {:.2} dB in the canonical pose (gap {:.2} dB); \
+             {} Gaussians bound, {} culled; {:.1} fps; wrote {}",
+            scores.frame_psnr.len(),
+            scores.mean_psnr,
+            scores.min_psnr,
+            scores.canonical_psnr,
+            scores.gap_db,
+            scores.gaussians,
+            scores.culled,
+            scores.fps,
+            dir.display()
+        ));
+        summary.insert(
+            "animation".into(),
+            serde_json::to_value(&scores).expect("plain data"),
+        );
+    }
     Ok(summary)
 }

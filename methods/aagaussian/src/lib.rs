@@ -21,10 +21,13 @@
 //! | U5 | centre-weighted face colour term | [`face::face_colour_loss`], [`face::centre_weights`] |
 //! | U6 | line-of-sight distance to the body | [`face::LineOfSight::loss`] |
 //! | U7 | fixed face camera | [`data::PortraitCapture::build`] |
+//! | U9 | animation binding: nearest face, barycentrics, normal offset; re-posing | [`binding::bind`], [`binding::SurfaceBinding::pose`], [`animate::animate`] |
 //! | S1/S2 | point-mass and mixture oracles | [`oracle::MixtureOracle`], [`oracle::posterior`] |
 //!
 //! The crate's `README.md` lists what is built so far and every choice the paper leaves open.
 
+pub mod animate;
+pub mod binding;
 pub mod cameras;
 pub mod config;
 pub mod data;

@@ -1,4 +1,8 @@
 //! AAGaussian's integration tests, one binary: the noise schedule's constants, SDS under the
-//! point-mass oracle against its closed form, v- and ε-prediction agreeing, and the clipping.
+//! point-mass oracle against its closed form, v- and ε-prediction agreeing, the clipping, the
+//! guidance forms' fixed points, the surrogate's gradient, the U9 binding and the animation of
+//! a reference avatar.
 
+mod binding;
+mod guidance;
 mod sds;

@@ -134,7 +134,7 @@ fn clipping_bounds_each_pixel_over_channels() {
     }
 }
 
-fn crate_seed() -> u64 {
+pub fn crate_seed() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .expect("the clock is past 1970")

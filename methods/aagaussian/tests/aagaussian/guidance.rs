@@ -1,0 +1,137 @@
+//! Spec T3 and T5: where each guidance form's SDS gradient vanishes when pixels are optimised
+//! directly under point-mass targets (classic CFG lands on `y_u + ω (y_c − y_u)`,
+//! HumanGaussian's form on `y_c + ω (y_c − y_u)`, plain SDS on `y_c`: SDS with guidance is not
+//! an L2 fit), and the surrogate's gradient `2 λ g / B` through Burn's autodiff.
+
+use crate::sds::crate_seed;
+use burn::tensor::{Tensor, TensorData};
+use splatzoo_aagaussian::oracle::{Components, FixedTargets, MixtureOracle};
+use splatzoo_aagaussian::schedule::NoiseSchedule;
+use splatzoo_aagaussian::score::{LatentBatch, Prediction, ViewClass};
+use splatzoo_aagaussian::sds::{Guidance, SdsConfig, SdsView, Weighting, surrogate};
+use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_rasterizer::Camera;
+use splatzoo_train::backend::Backend;
+use splatzoo_train::host_f32;
+
+const PIXELS: usize = 3 * 4 * 4;
+
+/// Pixels `x` moved by preconditioned SDS steps until the gradient vanishes.
+fn fixed_point(guidance: Guidance, omega: f64, y_c: &[f32], y_u: &[f32], seed: u64) -> Vec<f32> {
+    let schedule = NoiseSchedule::sd2();
+    let model = MixtureOracle {
+        schedule: schedule.clone(),
+        prediction: Prediction::Epsilon,
+        data_noise: 0.0,
+        // Cond is identity 0, the unconditional row identity 1 (point masses).
+        components: Components {
+            cond: vec![0],
+            negative: vec![1],
+            null: vec![1],
+        },
+        branches: 1,
+        targets: Box::new(FixedTargets {
+            images: vec![vec![y_c.to_vec()], vec![y_u.to_vec()]],
+        }),
+    };
+    let config = SdsConfig {
+        guidance,
+        scale: omega,
+        rescale: 0.0,
+        weighting: Weighting::Sds,
+        clip_norm: 0.0,
+        clamp_start: 0.0,
+        ..SdsConfig::default()
+    };
+    let view = SdsView {
+        camera: Camera::look_at([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], 50.0, 4, 4),
+        view: ViewClass::Front,
+    };
+    let mut rng = Rng(seed);
+    let mut z = LatentBatch {
+        shape: [1, 3, 4, 4],
+        data: vec![0.0; PIXELS],
+    };
+    for step in 0..60 {
+        let out = config
+            .guidance(&model, std::slice::from_ref(&z), &[view], step, &mut rng)
+            .expect("guidance");
+        let t = out.t[0];
+        // g = w α (x − x*) / σ here, so this step halves the distance to x*.
+        let precondition = schedule.sigma(t) / ((1.0 - schedule.alpha_bar(t)) * schedule.alpha(t));
+        for (x, g) in z.data.iter_mut().zip(&out.grads[0].data) {
+            *x -= (0.5 * precondition * f64::from(*g)) as f32;
+        }
+    }
+    z.data
+}
+
+#[test]
+fn guidance_forms_have_their_closed_form_fixed_points() {
+    let seed = crate_seed();
+    let mut rng = Rng(seed);
+    let y_c: Vec<f32> = (0..PIXELS).map(|_| rng.range(-0.5, 0.5) as f32).collect();
+    let y_u: Vec<f32> = (0..PIXELS).map(|_| rng.range(-0.5, 0.5) as f32).collect();
+    let omega = 3.0;
+    let cases: [(Guidance, Box<dyn Fn(f32, f32) -> f32>); 3] = [
+        (Guidance::Plain, Box::new(|c, _| c)),
+        (
+            Guidance::Cfg,
+            Box::new(move |c, u| u + omega as f32 * (c - u)),
+        ),
+        (
+            Guidance::HumanGaussian,
+            Box::new(move |c, u| c + omega as f32 * (c - u)),
+        ),
+    ];
+    for (guidance, expected) in cases {
+        let x = fixed_point(guidance, omega, &y_c, &y_u, seed ^ 11);
+        for j in 0..PIXELS {
+            let want = expected(y_c[j], y_u[j]);
+            assert!(
+                (x[j] - want).abs() < 1e-3,
+                "{guidance:?} pixel {j}: {} vs {want}",
+                x[j]
+            );
+        }
+    }
+    // Classic CFG lands beyond the target, where an L2 fit would stop at y_c.
+    let cfg = fixed_point(Guidance::Cfg, omega, &y_c, &y_u, seed ^ 13);
+    let off: f32 = cfg.iter().zip(&y_c).map(|(x, c)| (x - c).abs()).sum();
+    assert!(off > 0.1 * PIXELS as f32 * 0.1, "CFG stayed on y_c ({off})");
+}
+
+/// `d/dz λ ‖z − sg(z − g)‖² / B = 2 λ g / B` exactly, and the value is `λ ‖g‖² / B`.
+#[test]
+fn surrogate_gradient_is_two_lambda_g_over_b() {
+    let device = Backend::Flex.device().autodiff();
+    let mut rng = Rng(crate_seed() ^ 17);
+    let shape = [3, 2, 5, 4];
+    let n: usize = shape.iter().product();
+    let z_host: Vec<f32> = (0..n).map(|_| rng.normal() as f32).collect();
+    let g = LatentBatch {
+        shape,
+        data: (0..n).map(|_| rng.normal() as f32).collect(),
+    };
+    let lambda = 0.5;
+    let z = Tensor::<4>::from_data(TensorData::new(z_host, shape.to_vec()), &device).require_grad();
+    let loss = surrogate(z.clone(), &g, lambda).expect("same shape");
+    let value = splatzoo_train::loss::scalar(loss.clone());
+    let norm2: f64 = g.data.iter().map(|v| f64::from(*v).powi(2)).sum();
+    assert!((value - lambda * norm2 / 3.0).abs() < 1e-4 * (1.0 + value));
+    let grads = loss.backward();
+    let dz = host_f32(&z.grad(&grads).expect("z is a leaf"));
+    for (d, gj) in dz.iter().zip(&g.data) {
+        let want = 2.0 * lambda as f32 * gj / 3.0;
+        assert!(
+            (d - want).abs() < 1e-5 * (1.0 + want.abs()),
+            "{d} vs {want}"
+        );
+    }
+    let wrong = LatentBatch {
+        shape: [1, 2, 5, 4],
+        data: vec![0.0; 40],
+    };
+    let err = surrogate(z, &wrong, lambda).expect_err("shape mismatch");
+    assert!(err.to_string().contains("[3, 2, 5, 4]"), "{err}");
+}
