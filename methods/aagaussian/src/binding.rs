@@ -251,8 +251,8 @@ impl SurfaceBinding {
                 let quat: [f64; 4] =
                     std::array::from_fn(|i| f64::from(canonical.quats[4 * row + i]));
                 let turned = quaternion_product(matrix_quaternion(&turn), normalised(quat));
-                for i in 0..4 {
-                    out.quats[4 * k + i] = turned[i] as f32;
+                for (o, v) in out.quats[4 * k..4 * k + 4].iter_mut().zip(turned) {
+                    *o = v as f32;
                 }
             }
         }

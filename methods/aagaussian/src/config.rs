@@ -96,6 +96,9 @@ pub struct AagConfig {
     /// Side of each SDS render, pixels \[P: 1024 → 512 → 64² latents; C: pixel space\].
     pub render_size: u32,
     pub oracle: OracleConfig,
+    /// A user's ONNX denoiser, described by a TOML (see [`crate::onnx_score`]); unset: the
+    /// mixture oracle guides.
+    pub guidance_model: Option<PathBuf>,
     pub sds: SdsConfig,
     pub cameras: CameraConfig,
     pub face: FaceConfig,
@@ -127,6 +130,7 @@ impl Default for AagConfig {
             batch: 4,
             render_size: 64,
             oracle: OracleConfig::default(),
+            guidance_model: None,
             sds: SdsConfig {
                 timesteps: TimestepRange {
                     anneal_step: 500,

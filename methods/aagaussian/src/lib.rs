@@ -38,10 +38,13 @@ pub mod face;
 pub mod init;
 pub mod loss;
 mod method;
+pub mod onnx_score;
 pub mod oracle;
+pub mod prompts;
 pub mod schedule;
 pub mod score;
 pub mod sds;
+pub mod tiny_unet;
 pub mod trainer;
 
 pub use error::AagError;

@@ -6,6 +6,8 @@
 use crate::config::AagConfig;
 use crate::data::PortraitCapture;
 use crate::error::AagError;
+use crate::onnx_score::OnnxScore;
+use crate::score::ScoreModel;
 use crate::trainer::{AVATAR, AagTrainer, mixture_oracle};
 use burn::tensor::Device;
 use splatzoo_datasets::synth::rng::Rng;
@@ -40,6 +42,9 @@ pub struct AagArgs {
     /// Classic classifier-free guidance instead of ANPG.
     #[arg(long)]
     pub cfg: bool,
+    /// Guidance by a user's ONNX denoiser described by this TOML (see the README).
+    #[arg(long)]
+    pub guidance_config: Option<std::path::PathBuf>,
 }
 
 pub struct Aag {
@@ -48,26 +53,43 @@ pub struct Aag {
 }
 
 impl Aag {
-    /// A fresh run with the mixture oracle.
+    /// A fresh run, guided by the configured model (the mixture oracle by default).
     pub fn assemble(config: AagConfig, device: &Device) -> Result<Self, AagError> {
         device.seed(config.seed);
         let capture = PortraitCapture::build(&config.data, device);
-        let oracle = mixture_oracle(&config, &capture);
         let data = &config.data;
-        let decisions = vec![
-            format!(
-                "guidance: the mixture oracle over {} synthetic identities (prompt = identity {}, \
+        let (model, guidance): (Box<dyn ScoreModel>, String) = match &config.guidance_model {
+            Some(path) => {
+                let model = OnnxScore::load(path)?;
+                let about = format!(
+                    "guidance: the ONNX denoiser {} in tract ({} branch(es), {:?} prediction, \
+                     latent scale {})",
+                    model.config.graph.display(),
+                    model.branches(),
+                    model.prediction(),
+                    model.latent_scale()
+                );
+                (Box::new(model), about)
+            }
+            None => (
+                Box::new(mixture_oracle(&config, &capture)),
+                format!(
+                    "guidance: the mixture oracle over {} synthetic identities (prompt = identity {}, \
                  negative = identity {}, data noise {}), {:?} schedule, {:?} prediction, {} \
                  branch(es) — an exact denoiser standing in for a text-to-image model, not \
                  text-to-3D",
-                data.identities,
-                data.prompt,
-                data.negative,
-                config.oracle.data_noise,
-                config.oracle.schedule,
-                config.oracle.prediction,
-                config.oracle.branches
+                    data.identities,
+                    data.prompt,
+                    data.negative,
+                    config.oracle.data_noise,
+                    config.oracle.schedule,
+                    config.oracle.prediction,
+                    config.oracle.branches
+                ),
             ),
+        };
+        let decisions = vec![
+            guidance,
             format!(
                 "body prior: the built-in body with the prompted identity's true shape in the \
                  {:?} canonical pose (no keypoint fit yet), normalised to {:.4} m per unit",
@@ -82,7 +104,7 @@ impl Aag {
                 config.face.line_of_sight
             ),
         ];
-        let trainer = AagTrainer::new(config, capture, Box::new(oracle), &device.clone());
+        let trainer = AagTrainer::new(config, capture, model, &device.clone());
         Ok(Self { trainer, decisions })
     }
 }
@@ -108,6 +130,12 @@ impl Method for Aag {
         on(args.no_depth, "sds.lambda_depth=0.0");
         on(args.box_init, "init=\"box\"");
         on(args.cfg, "sds.guidance=\"cfg\"");
+        if let Some(path) = &args.guidance_config {
+            // A TOML basic string: backslashes and quotes escaped.
+            let text = path.display().to_string();
+            let escaped = text.replace('\\', "\\\\").replace('"', "\\\"");
+            sets.push(format!("guidance_model=\"{escaped}\""));
+        }
         sets
     }
 

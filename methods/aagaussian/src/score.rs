@@ -146,6 +146,11 @@ pub trait ScoreModel {
     fn prediction(&self) -> Prediction;
     /// 1: RGB only; 2: RGB + depth (Eq. 5).
     fn branches(&self) -> usize;
+    /// The factor the branches are multiplied by before noising (SD's 0.18215 on VAE latents;
+    /// 1 in pixel space).
+    fn latent_scale(&self) -> f64 {
+        1.0
+    }
     /// `noisy[k]` is branch k's `[N, C, H, W]`; `t` and `cond` have N entries.
     fn predict(
         &self,

@@ -193,8 +193,9 @@ impl AagTrainer {
             .splats();
         let cameras: Vec<Camera> = views.iter().map(|v| v.camera).collect();
         let mut renders = render_views(&splats, &cameras)?;
-        let z_rgb = rgb_branch(&renders);
-        let z_depth = depth_branch(&renders);
+        let scale = self.model.latent_scale();
+        let z_rgb = rgb_branch(&renders).mul_scalar(scale);
+        let z_depth = depth_branch(&renders).mul_scalar(scale);
         let mut inputs = vec![host_batch(&z_rgb)];
         if self.model.branches() == 2 {
             inputs.push(host_batch(&z_depth));

@@ -73,7 +73,8 @@ fn guidance_forms_have_their_closed_form_fixed_points() {
     let y_c: Vec<f32> = (0..PIXELS).map(|_| rng.range(-0.5, 0.5) as f32).collect();
     let y_u: Vec<f32> = (0..PIXELS).map(|_| rng.range(-0.5, 0.5) as f32).collect();
     let omega = 3.0;
-    let cases: [(Guidance, Box<dyn Fn(f32, f32) -> f32>); 3] = [
+    type Expected = Box<dyn Fn(f32, f32) -> f32>;
+    let cases: [(Guidance, Expected); 3] = [
         (Guidance::Plain, Box::new(|c, _| c)),
         (
             Guidance::Cfg,

@@ -1,0 +1,263 @@
+//! Spec S4 and acceptance check 6: a random-weight denoiser exported by burn-onnx and run in
+//! tract through `OnnxScore` equals the same network run by Burn, alone and inside the SDS
+//! driver; `train-aag`'s trainer takes steps guided by it; a TOML or an embeddings file that
+//! does not fit is named in the error.
+
+use crate::sds::crate_seed;
+use burn::tensor::{Tensor, TensorData};
+use burn_onnx::export::OnnxExporter;
+use splatzoo_aagaussian::Aag;
+use splatzoo_aagaussian::config::AagConfig;
+use splatzoo_aagaussian::data::PortraitConfig;
+use splatzoo_aagaussian::onnx_score::OnnxScore;
+use splatzoo_aagaussian::prompts::PromptEmbeddings;
+use splatzoo_aagaussian::schedule::NoiseSchedule;
+use splatzoo_aagaussian::score::{
+    Conditioning, LatentBatch, Prediction, PromptKind, ScoreModel, ViewClass,
+};
+use splatzoo_aagaussian::sds::{SdsConfig, SdsView};
+use splatzoo_aagaussian::tiny_unet::{BurnScore, INPUTS, OUTPUTS, TinyDenoiser};
+use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_rasterizer::Camera;
+use splatzoo_train::backend::Backend;
+use splatzoo_train::onnx::write_graph;
+use std::path::{Path, PathBuf};
+
+const TOKENS: usize = 5;
+const CHANNELS: usize = 6;
+
+fn random_rows(rng: &mut Rng, count: usize) -> Vec<Vec<f32>> {
+    (0..count)
+        .map(|_| {
+            (0..TOKENS * CHANNELS)
+                .map(|_| rng.normal() as f32)
+                .collect()
+        })
+        .collect()
+}
+
+fn prompts(rng: &mut Rng) -> PromptEmbeddings {
+    PromptEmbeddings::from_rows(
+        TOKENS,
+        CHANNELS,
+        random_rows(rng, 4),
+        random_rows(rng, 4),
+        random_rows(rng, 1).remove(0),
+    )
+}
+
+fn inputs(rows: usize, size: usize) -> (Tensor<4>, Tensor<4>, Tensor<1>, Tensor<3>) {
+    let device = Backend::Flex.device();
+    (
+        Tensor::zeros([rows, 3, size, size], &device),
+        Tensor::zeros([rows, 1, size, size], &device),
+        Tensor::from_data(TensorData::new(vec![1.0f32; rows], [rows]), &device),
+        Tensor::zeros([rows, TOKENS, CHANNELS], &device),
+    )
+}
+
+/// Exports `net` with a dynamic row axis and writes its TOML and embeddings beside it.
+fn write_model(net: &TinyDenoiser, prompts: &PromptEmbeddings, dir: &Path) -> PathBuf {
+    // Exported with a fixed row count (burn-onnx cannot keep one symbolic axis shared by
+    // several inputs); `batch = 2` in the TOML runs any number of rows through it.
+    let model = OnnxExporter::new()
+        .export(net, inputs(2, 8), |m: &TinyDenoiser, x| m.forward(x))
+        .expect("the tiny denoiser exports");
+    write_graph(model.as_bytes(), &INPUTS, &OUTPUTS, &dir.join("tiny.onnx")).expect("written");
+    prompts
+        .write(&dir.join("prompts.safetensors"))
+        .expect("written");
+    let toml = "graph = \"tiny.onnx\"\nprompt_embeddings = \"prompts.safetensors\"\n\
+         prediction = \"epsilon\"\nbatch = 2\noutputs = [\"eps_rgb\", \"eps_depth\"]\n\
+         [inputs]\nsamples = [\"sample_rgb\", \"sample_depth\"]\ntimestep = \"timestep\"\n\
+         timestep_type = \"float32\"\nencoder_hidden_states = \"encoder_hidden_states\"\n\
+         [schedule]\nzero_snr = true\n";
+    let path = dir.join("guidance.toml");
+    std::fs::write(&path, toml).expect("written");
+    path
+}
+
+fn camera() -> Camera {
+    Camera::look_at([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], 50.0, 8, 8)
+}
+
+#[test]
+fn onnx_guidance_equals_its_burn_twin() {
+    let seed = crate_seed();
+    let device = Backend::Flex.device();
+    device.seed(seed);
+    let mut rng = Rng(seed);
+    let net = TinyDenoiser::new(8, CHANNELS, &device);
+    let prompts = prompts(&mut rng);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let toml = write_model(&net, &prompts, dir.path());
+    let onnx = OnnxScore::load(&toml).expect("loads");
+    let burn = BurnScore {
+        net,
+        schedule: NoiseSchedule::sd2().zero_snr(),
+        prediction: Prediction::Epsilon,
+        prompts,
+        device,
+    };
+    assert_eq!(onnx.branches(), 2);
+    assert_eq!(onnx.schedule(), burn.schedule());
+
+    // One direct call on 7 rows (the last chunk padded), every prompt kind and view.
+    let rows = 7;
+    let batch = |c: usize, rng: &mut Rng| LatentBatch {
+        shape: [rows, c, 8, 8],
+        data: (0..rows * c * 64).map(|_| rng.normal() as f32).collect(),
+    };
+    let noisy = vec![batch(3, &mut rng), batch(1, &mut rng)];
+    let t: Vec<usize> = (0..rows).map(|_| (rng.next() * 999.0) as usize).collect();
+    let views = [
+        ViewClass::Front,
+        ViewClass::Side,
+        ViewClass::Back,
+        ViewClass::Overhead,
+    ];
+    let kinds = [PromptKind::Cond, PromptKind::Negative, PromptKind::Null];
+    let cond = Conditioning {
+        prompts: (0..rows).map(|i| kinds[i % 3]).collect(),
+        views: (0..rows).map(|i| views[i % 4]).collect(),
+        cameras: vec![camera(); rows],
+    };
+    let a = onnx.predict(&noisy, &t, &cond).expect("tract runs");
+    let b = burn.predict(&noisy, &t, &cond).expect("burn runs");
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.shape, y.shape);
+        let scale = y.data.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        let diff = x
+            .data
+            .iter()
+            .zip(&y.data)
+            .fold(0.0f32, |m, (p, q)| m.max((p - q).abs()));
+        assert!(
+            diff <= 1e-5 * scale.max(1.0),
+            "max difference {diff} at scale {scale}"
+        );
+    }
+
+    // The whole ANPG driver on both (same random state) gives the same gradients.
+    let config = SdsConfig::default();
+    let z = vec![
+        batch(3, &mut rng).items(0..2),
+        batch(1, &mut rng).items(0..2),
+    ];
+    let views = [
+        SdsView {
+            camera: camera(),
+            view: ViewClass::Front,
+        },
+        SdsView {
+            camera: camera(),
+            view: ViewClass::Back,
+        },
+    ];
+    let ga = config
+        .guidance(&onnx, &z, &views, 10, &mut Rng(seed ^ 1))
+        .expect("onnx guidance");
+    let gb = config
+        .guidance(&burn, &z, &views, 10, &mut Rng(seed ^ 1))
+        .expect("burn guidance");
+    assert_eq!(ga.t, gb.t);
+    for (x, y) in ga.grads.iter().zip(&gb.grads) {
+        for (p, q) in x.data.iter().zip(&y.data) {
+            assert!((p - q).abs() <= 1e-4 * (1.0 + q.abs()), "{p} vs {q}");
+        }
+    }
+}
+
+#[test]
+fn mismatched_guidance_files_are_named() {
+    let device = Backend::Flex.device();
+    let mut rng = Rng(crate_seed() ^ 2);
+    let net = TinyDenoiser::new(4, CHANNELS, &device);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let toml = write_model(&net, &prompts(&mut rng), dir.path());
+    let text = std::fs::read_to_string(&toml).expect("read");
+
+    let wrong_input = dir.path().join("wrong_input.toml");
+    std::fs::write(
+        &wrong_input,
+        text.replace("\"sample_depth\"]", "\"depth\"]"),
+    )
+    .expect("w");
+    let err = OnnxScore::load(&wrong_input)
+        .err()
+        .expect("a graph input is unnamed");
+    let message = err.to_string();
+    assert!(
+        message.contains("tiny.onnx") && message.contains("sample_depth"),
+        "{message}"
+    );
+
+    let wrong_output = dir.path().join("wrong_output.toml");
+    std::fs::write(&wrong_output, text.replace("\"eps_depth\"]", "\"noise\"]")).expect("w");
+    let message = OnnxScore::load(&wrong_output)
+        .err()
+        .expect("no such output")
+        .to_string();
+    assert!(message.contains("no graph output `noise`"), "{message}");
+
+    let mut partial =
+        splatzoo_train::checkpoint::Checkpoint::read(&dir.path().join("prompts.safetensors"))
+            .expect("read");
+    partial.tensors.remove("null");
+    partial
+        .write(&dir.path().join("prompts.safetensors"))
+        .expect("rewritten");
+    let message = OnnxScore::load(&toml)
+        .err()
+        .expect("no null row")
+        .to_string();
+    assert!(
+        message.contains("prompts.safetensors") && message.contains("`null`"),
+        "{message}"
+    );
+
+    let unknown = dir.path().join("unknown.toml");
+    std::fs::write(&unknown, format!("{text}\nguidance_scale = 7.5\n")).expect("w");
+    let message = OnnxScore::load(&unknown)
+        .err()
+        .expect("unknown key")
+        .to_string();
+    assert!(message.contains("unknown.toml"), "{message}");
+}
+
+/// Acceptance check 6: the trainer takes steps guided by the ONNX model.
+#[test]
+fn the_trainer_steps_with_the_onnx_model() {
+    let device = Backend::Flex.device();
+    let mut rng = Rng(crate_seed() ^ 3);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let toml = write_model(
+        &TinyDenoiser::new(4, CHANNELS, &device),
+        &prompts(&mut rng),
+        dir.path(),
+    );
+    let config = AagConfig {
+        guidance_model: Some(toml),
+        gaussians: 400,
+        batch: 2,
+        render_size: 8,
+        data: PortraitConfig {
+            identities: 2,
+            face_size: 8,
+            eval_azimuths: 1,
+            eval_elevations: vec![0.0],
+            eval_size: 8,
+            ..PortraitConfig::default()
+        },
+        ..AagConfig::default()
+    };
+    let mut method = Aag::assemble(config, &device).expect("assembles");
+    for _ in 0..3 {
+        let record = method.trainer.train_step().expect("a step");
+        assert!(
+            record.loss.is_finite() && record.sds_rgb > 0.0,
+            "{record:?}"
+        );
+        assert_eq!(record.nonfinite, 0);
+    }
+}
