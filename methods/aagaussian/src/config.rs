@@ -12,7 +12,7 @@ use crate::init::InitKind;
 use crate::loss::SparsityKind;
 use crate::schedule::{NoiseSchedule, ScheduleKind, TimestepRange};
 use crate::score::Prediction;
-use crate::sds::SdsConfig;
+use crate::sds::{Guidance, SdsConfig};
 use serde::{Deserialize, Serialize};
 use splatzoo_train::TrainError;
 use splatzoo_train::backend::Backend;
@@ -132,6 +132,11 @@ impl Default for AagConfig {
             oracle: OracleConfig::default(),
             guidance_model: None,
             sds: SdsConfig {
+                // \[C\] classic CFG on the stand-in (HumanGaussian's ANPG is one flag away):
+                // under an exact oracle ANPG's negative term `ε_∅ − ε_neg` is a constant push
+                // away from the negative identity with nothing to balance it, and it erased
+                // the dark-skinned head (README, guidance table).
+                guidance: Guidance::Cfg,
                 timesteps: TimestepRange {
                     anneal_step: 500,
                     ..TimestepRange::default()

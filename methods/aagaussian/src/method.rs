@@ -39,9 +39,9 @@ pub struct AagArgs {
     /// Start from a random box instead of the body prior (§3.2's comparison).
     #[arg(long)]
     pub box_init: bool,
-    /// Classic classifier-free guidance instead of ANPG.
+    /// HumanGaussian's annealed negative-prompt guidance instead of classic CFG.
     #[arg(long)]
-    pub cfg: bool,
+    pub anpg: bool,
     /// Guidance by a user's ONNX denoiser described by this TOML (see the README).
     #[arg(long)]
     pub guidance_config: Option<std::path::PathBuf>,
@@ -129,7 +129,7 @@ impl Method for Aag {
         on(args.no_line_of_sight, "face.line_of_sight=0.0");
         on(args.no_depth, "sds.lambda_depth=0.0");
         on(args.box_init, "init=\"box\"");
-        on(args.cfg, "sds.guidance=\"cfg\"");
+        on(args.anpg, "sds.guidance=\"anpg\"");
         if let Some(path) = &args.guidance_config {
             // A TOML basic string: backslashes and quotes escaped.
             let text = path.display().to_string();

@@ -136,3 +136,80 @@ fn surrogate_gradient_is_two_lambda_g_over_b() {
     let err = surrogate(z, &wrong, lambda).expect_err("shape mismatch");
     assert!(err.to_string().contains("[3, 2, 5, 4]"), "{err}");
 }
+
+/// Standardised residuals `(g − E[g]) / sd[g]` of plain SDS under one blurred identity
+/// (S2 with K = 1, s = 0.1): `E[g] = w σ α (x − y) / D` and `sd[g] = w α² s² / D` with
+/// `D = α² s² + σ²`, over every draw and element.
+fn residual_moments(weighting: Weighting, draws: usize, seed: u64) -> (f64, f64) {
+    let mut rng = Rng(seed);
+    let x: Vec<f32> = (0..PIXELS).map(|_| rng.range(-1.0, 1.0) as f32).collect();
+    let y: Vec<f32> = (0..PIXELS).map(|_| rng.range(-1.0, 1.0) as f32).collect();
+    let s = 0.1;
+    let schedule = NoiseSchedule::sd2();
+    let model = MixtureOracle {
+        schedule: schedule.clone(),
+        prediction: Prediction::Epsilon,
+        data_noise: s,
+        components: Components::labels(0, 0, 1),
+        branches: 1,
+        targets: Box::new(FixedTargets {
+            images: vec![vec![y.clone()]],
+        }),
+    };
+    let config = SdsConfig {
+        guidance: Guidance::Plain,
+        weighting,
+        clip_norm: 0.0,
+        clamp_start: 0.0,
+        ..SdsConfig::default()
+    };
+    let view = SdsView {
+        camera: Camera::look_at([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], 50.0, 4, 4),
+        view: ViewClass::Front,
+    };
+    let z = LatentBatch {
+        shape: [1, 3, 4, 4],
+        data: x.clone(),
+    };
+    let (mut sum, mut sum2, mut count) = (0.0, 0.0, 0.0);
+    for _ in 0..draws {
+        let out = config
+            .guidance(&model, std::slice::from_ref(&z), &[view], 0, &mut rng)
+            .expect("guidance");
+        let t = out.t[0];
+        let (a, sg) = (schedule.alpha(t), schedule.sigma(t));
+        let d = a * a * s * s + sg * sg;
+        let w = 1.0 - schedule.alpha_bar(t);
+        for j in 0..PIXELS {
+            let mean = w * sg * a * f64::from(x[j] - y[j]) / d;
+            let sd = w * a * a * s * s / d;
+            let r = (f64::from(out.grads[0].data[j]) - mean) / sd;
+            sum += r;
+            sum2 += r * r;
+            count += 1.0;
+        }
+    }
+    let mean = sum / count;
+    (mean, sum2 / count - mean * mean)
+}
+
+/// Spec T2: the Monte-Carlo mean of the SDS gradient under S2 with one identity is its closed
+/// form (within 4 standard errors) and its spread is the noise term's; uniform weighting
+/// does not fit the `1 − ᾱ_t` formula.
+#[test]
+fn mixture_sds_matches_its_closed_form_mean_and_variance() {
+    let draws = 4096;
+    let (mean, variance) = residual_moments(Weighting::Sds, draws, crate_seed());
+    let samples = (draws * PIXELS) as f64;
+    assert!(mean.abs() < 4.0 / samples.sqrt(), "mean residual {mean}");
+    // The variance estimate of ~2·10⁵ unit normals is 1 within a few hundredths.
+    assert!(
+        (variance - 1.0).abs() < 0.05,
+        "residual variance {variance}"
+    );
+    let (_, uniform) = residual_moments(Weighting::Uniform, 256, crate_seed() ^ 1);
+    assert!(
+        (uniform - 1.0).abs() > 0.5,
+        "uniform weighting fit: {uniform}"
+    );
+}

@@ -1,9 +1,11 @@
 //! AAGaussian's integration tests, one binary: the noise schedule's constants, SDS under the
 //! point-mass oracle against its closed form, v- and ε-prediction agreeing, the clipping, the
 //! guidance forms' fixed points, the surrogate's gradient, the U9 binding, the animation of a
-//! reference avatar, and the ONNX guidance path against its Burn twin.
+//! reference avatar, the ONNX guidance path against its Burn twin,
+//! the Monte-Carlo moments of SDS under the mixture, and the trainer's schedule and resume.
 
 mod binding;
 mod guidance;
 mod onnx;
 mod sds;
+mod trainer;

@@ -1,0 +1,127 @@
+//! The trainer on a tiny capture: density control and prune-only fire exactly on their steps,
+//! the face term only from its start step, a checkpoint resumes bit-exactly on the CPU, and
+//! the face term's centre weights (spec T7's weight checks).
+
+use crate::sds::crate_seed;
+use burn::tensor::{Tensor, TensorData};
+use splatzoo_aagaussian::Aag;
+use splatzoo_aagaussian::config::AagConfig;
+use splatzoo_aagaussian::data::PortraitConfig;
+use splatzoo_aagaussian::face::{FaceNorm, centre_weights, face_colour_loss};
+use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_train::backend::Backend;
+use splatzoo_train::harness::Method;
+use splatzoo_train::host_f32;
+
+fn tiny(seed: u64) -> AagConfig {
+    let mut config = AagConfig {
+        seed,
+        gaussians: 300,
+        batch: 2,
+        render_size: 8,
+        data: PortraitConfig {
+            identities: 2,
+            face_size: 8,
+            eval_azimuths: 1,
+            eval_elevations: vec![0.0],
+            eval_size: 8,
+            ..PortraitConfig::default()
+        },
+        ..AagConfig::default()
+    };
+    config.densify.start = 2;
+    config.densify.every = 2;
+    config.densify.stop = 6;
+    config.densify.grad_threshold = 0.0;
+    config.densify.prune_only_steps = vec![7];
+    config.face.start = 5;
+    config.face.probability = 1.0;
+    config
+}
+
+/// Spec acceptance 9 (schedule): growth after steps 4 and 6 (`start < s ≤ stop`, every 2), the
+/// prune-only phase after step 7, nothing elsewhere; the face term from step 5 on.
+#[test]
+fn density_control_and_face_term_fire_on_their_steps() {
+    let device = Backend::Flex.device();
+    let mut method = Aag::new(tiny(crate_seed() % 1000), &device).expect("assembles");
+    let (mut density_steps, mut face_steps) = (Vec::new(), Vec::new());
+    for _ in 0..9 {
+        let record = method.trainer.train_step().expect("a step");
+        let done = method.trainer.step;
+        if record.density.is_some() {
+            density_steps.push(done);
+        }
+        if record.face.is_some() {
+            face_steps.push(done - 1);
+        }
+    }
+    assert_eq!(density_steps, vec![4, 6, 7]);
+    assert_eq!(face_steps, vec![5, 6, 7, 8]);
+}
+
+/// A run of 6 steps and a run of 3 steps, a checkpoint and 3 more steps end on the same bits.
+#[test]
+fn a_checkpoint_resumes_bit_exactly() {
+    let device = Backend::Flex.device();
+    let config = tiny(crate_seed() % 1000);
+    let mut straight = Aag::new(config.clone(), &device).expect("assembles");
+    for _ in 0..6 {
+        straight.step().expect("a step");
+    }
+    let mut first = Aag::new(config.clone(), &device).expect("assembles");
+    for _ in 0..3 {
+        first.step().expect("a step");
+    }
+    let mut checkpoint = first.checkpoint();
+    checkpoint.put_meta("step", 3);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("checkpoint.safetensors");
+    checkpoint.write(&path).expect("written");
+    let read = splatzoo_train::checkpoint::Checkpoint::read(&path).expect("read");
+    let mut resumed = Aag::resume(config, &read, &device).expect("resumes");
+    for _ in 0..3 {
+        resumed.step().expect("a step");
+    }
+    let (a, b) = (&straight.trainer.node.set, &resumed.trainer.node.set);
+    assert_eq!(a.len(), b.len());
+    assert_eq!(host_f32(&a.means), host_f32(&b.means));
+    assert_eq!(host_f32(&a.quats), host_f32(&b.quats));
+    assert_eq!(host_f32(&a.log_scales), host_f32(&b.log_scales));
+    assert_eq!(host_f32(&a.opacity_logits), host_f32(&b.opacity_logits));
+    assert_eq!(host_f32(&a.sh_dc), host_f32(&b.sh_dc));
+    assert_eq!(straight.trainer.rng.0, resumed.trainer.rng.0);
+}
+
+/// U5's weights sum to 1 and peak at the centre; a colour error's gradient at a pixel is its
+/// weight (over 3 channels), so a corner error pulls less than a centre error by their ratio.
+#[test]
+fn face_weights_sum_to_one_and_scale_the_gradient() {
+    let size = 16;
+    let weights = centre_weights(size, 0.25);
+    let total: f64 = weights.iter().map(|w| f64::from(*w)).sum();
+    assert!((total - 1.0).abs() < 1e-5);
+    let centre = (size / 2) * size + size / 2;
+    let top = weights.iter().fold(0.0f32, |m, w| m.max(*w));
+    assert!(weights[centre] >= top * (1.0 - 1e-6));
+    assert!(weights[0] < weights[centre]);
+
+    let device = Backend::Flex.device().autodiff();
+    let mut rng = Rng(crate_seed() ^ 5);
+    let crop: Vec<f32> = (0..size * size * 3).map(|_| rng.next() as f32).collect();
+    let image: Vec<f32> = crop.iter().map(|c| c + 0.1).collect();
+    let image =
+        Tensor::<3>::from_data(TensorData::new(image, [size, size, 3]), &device).require_grad();
+    let crop = Tensor::<3>::from_data(TensorData::new(crop, [size, size, 3]), &device);
+    let loss = face_colour_loss(image.clone(), crop, &weights, FaceNorm::L1);
+    let grad = host_f32(&image.grad(&loss.backward()).expect("a leaf"));
+    for p in [0, centre, size * size - 1] {
+        for c in 0..3 {
+            let want = weights[p] / 3.0;
+            assert!(
+                (grad[3 * p + c] - want).abs() < 1e-6 * (1.0 + want),
+                "pixel {p}"
+            );
+        }
+    }
+}
