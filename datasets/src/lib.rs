@@ -17,6 +17,7 @@ pub mod image_io;
 pub mod masks;
 pub mod nerfstudio;
 pub mod obj;
+pub mod openpose;
 pub mod point_ply;
 pub mod pose_sequence;
 pub mod posing;

@@ -2,14 +2,15 @@
 //! fixtures (and on the real releases' awkward parts, [`real_layouts`]; COLMAP scenes and
 //! nerfstudio's PLY points, [`colmap_scenes`]), the pose-body command,
 //! pose sequences, the CPU mesh renderer, synthetic scenes and their export (the driving
-//! preset's APF-GS measurements, [`driving`]), and binary masks for APF-GS's decoupling
-//! ([`masks`]).
+//! preset's APF-GS measurements, [`driving`]), binary masks for APF-GS's decoupling
+//! ([`masks`]), and OpenPose keypoint JSON ([`openpose`]).
 
 mod colmap_scenes;
 mod driving;
 mod fixtures;
 mod formats;
 mod masks;
+mod openpose;
 mod pose_body_cli;
 mod pose_sequence;
 mod real_layouts;

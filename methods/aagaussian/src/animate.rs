@@ -1,7 +1,7 @@
 //! Animation (§3.4 of AAGaussian, U9): the trained canonical avatar, bound to the body surface
 //! ([`crate::binding`]), re-posed zero-shot frame by frame by a pose sequence (a built-in walk
-//! then wave, or a user's AMASS `.npz`), and compared with the prompted identity's own mesh
-//! posed the same way (rendered by the independent CPU renderer): the identity-kept score.
+//! then wave, or a user's AMASS `.npz`) through the body prior's posed mesh, and compared with
+//! the prompted identity's own mesh posed the same way (rendered by the independent CPU renderer): the identity-kept score.
 //! Writes `frame_XXXX.png` (avatar | identity), `animation.gif` and a posed INRIA
 //! `frame_XXXX.ply` per frame.
 //!
@@ -264,9 +264,10 @@ fn score_pose(
 ) -> Result<PosedFrame, AagError> {
     let label = capture.config.prompt;
     let vertices = capture.posed_vertices(label, pose, device);
+    let body = capture.posed_body(pose, device);
     let start = Instant::now();
     let posed = GaussianSet::from_rows(
-        &binding.pose(rows, &vertices, &capture.bank.faces, config.rotate),
+        &binding.pose(rows, &body, &capture.bank.faces, config.rotate),
         device,
     );
     let renders = render_views(&posed.splats(), cameras)?;

@@ -4,12 +4,15 @@
 //! face-loss identity from the fixed face camera (U7) with its face mask, the body's depth from
 //! that camera (D_m of U6), and the held-out views the avatar is scored on.
 //!
-//! Units: the prompted identity's canonical mesh is normalised as HumanGaussian does (bounding
-//! box centred at the origin, longest side 0.6 · 1.1¹⁰ = 1.5562); every identity shares that
-//! transform, and `metres_per_unit` returns to metres.
+//! The avatar's body is the body prior: the built-in body with the shape fitted to the
+//! portrait's keypoints ([`crate::portrait_fit`]). Units: its canonical mesh is normalised as
+//! HumanGaussian does (bounding box centred at the origin, longest side 0.6 · 1.1¹⁰ = 1.5562);
+//! every identity shares that transform, and `metres_per_unit` returns to metres.
 
 use crate::cameras::orbit_camera;
+use crate::error::AagError;
 use crate::oracle::Targets;
+use crate::portrait_fit::{PortraitFit, fit_portrait};
 use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
 use splatzoo_datasets::render::{
@@ -79,6 +82,12 @@ pub struct PortraitConfig {
     pub eval_distance: f64,
     pub eval_fovy_degrees: f64,
     pub eval_size: u32,
+    /// Fit the body prior's shape from the portrait's keypoints (\[P\]); false: the
+    /// prompted identity's true shape (tests of everything downstream of the fit).
+    pub body_fit: bool,
+    /// Pixel noise of the portrait's keypoints, and the portrait's side.
+    pub keypoint_noise_px: f64,
+    pub portrait_size: u32,
 }
 
 impl Default for PortraitConfig {
@@ -98,6 +107,9 @@ impl Default for PortraitConfig {
             eval_distance: 1.8,
             eval_fovy_degrees: 50.0,
             eval_size: 96,
+            body_fit: true,
+            keypoint_noise_px: 2.0,
+            portrait_size: 512,
         }
     }
 }
@@ -113,6 +125,13 @@ impl PortraitConfig {
         }
         if self.face_size < 8 || self.eval_size < 8 {
             return Err("data: face_size and eval_size must be at least 8 pixels".into());
+        }
+        if !(self.keypoint_noise_px.is_finite() && self.keypoint_noise_px >= 0.0)
+            || self.portrait_size < 64
+        {
+            return Err(
+                "data: keypoint_noise_px must be finite and >= 0, portrait_size >= 64".into(),
+            );
         }
         if self.eval_azimuths == 0 || self.eval_elevations.is_empty() {
             return Err("data: at least one held-out azimuth and elevation".into());
@@ -236,6 +255,9 @@ pub struct PortraitCapture {
     pub metres_per_unit: f64,
     /// The body-space point that normalisation moves to the origin (metres).
     pub centre: [f32; 3],
+    /// The body prior's shape (fitted, or the identity's own without `body_fit`).
+    pub body_betas: Vec<f64>,
+    pub body_fit: Option<PortraitFit>,
     /// The head joint's height in normalised units (A13).
     pub head_height: f64,
     pub face_camera: Camera,
@@ -266,7 +288,15 @@ impl PortraitCapture {
     /// Identity `label`'s mesh posed by the 72-D SMPL `pose` (no translation), in the
     /// capture's normalised units.
     pub fn posed_vertices(&self, label: usize, pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
-        let betas = &self.bank.identities[label].identity.betas;
+        self.posed_shape(&self.bank.identities[label].identity.betas, pose, device)
+    }
+
+    /// The body prior's mesh (the avatar's body) posed by `pose`, normalised.
+    pub fn posed_body(&self, pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
+        self.posed_shape(&self.body_betas, pose, device)
+    }
+
+    fn posed_shape(&self, betas: &[f64], pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
         let scale = (1.0 / self.metres_per_unit) as f32;
         posed_once(betas, pose, device)
             .vertices
@@ -275,21 +305,36 @@ impl PortraitCapture {
             .collect()
     }
 
-    pub fn build(config: &PortraitConfig, device: &Device) -> Self {
+    pub fn build(config: &PortraitConfig, device: &Device) -> Result<Self, AagError> {
         let body = builtin_body();
         let pose = config.canonical.axis_angle();
         let identities: Vec<Identity> = (0..config.identities)
             .map(|k| Identity::sample(config.seed.wrapping_mul(1000).wrapping_add(k as u64)))
             .collect();
-        let posed: Vec<(Vec<[f32; 3]>, [f32; 3])> = identities
+        let posed: Vec<Vec<[f32; 3]>> = identities
             .iter()
-            .map(|id| {
-                let frame = posed_once(&id.betas, &pose, device);
-                (frame.vertices, frame.joints[HEAD_JOINT])
-            })
+            .map(|id| posed_once(&id.betas, &pose, device).vertices)
             .collect();
-        // HumanGaussian's normalisation, from the prompted identity's mesh.
-        let (reference, head) = &posed[config.prompt];
+        // The body prior: fitted from the portrait's keypoints, or the truth.
+        let truth = &identities[config.prompt].betas;
+        let body_fit = if config.body_fit {
+            Some(fit_portrait(
+                truth,
+                &pose,
+                config.portrait_size,
+                config.keypoint_noise_px,
+                config.seed ^ 0xF17,
+                device,
+            )?)
+        } else {
+            None
+        };
+        let body_betas = body_fit
+            .as_ref()
+            .map_or_else(|| truth.clone(), |f| f.betas.clone());
+        let prior = posed_once(&body_betas, &pose, device);
+        // HumanGaussian's normalisation, from the body prior's mesh.
+        let (reference, head) = (&prior.vertices, &prior.joints[HEAD_JOINT]);
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         for p in reference {
@@ -313,7 +358,7 @@ impl PortraitCapture {
             identities: identities
                 .iter()
                 .zip(&posed)
-                .map(|(identity, (vertices, _))| IdentityMesh {
+                .map(|(identity, vertices)| IdentityMesh {
                     texture: identity.bake_texture(body, TEXTURE_SIZE),
                     identity: identity.clone(),
                     vertices: vertices.iter().map(normalise).collect(),
@@ -333,7 +378,7 @@ impl PortraitCapture {
                 supersample: 1,
             },
         };
-        let canonical = bank.identities[config.prompt].vertices.clone();
+        let canonical: Vec<[f32; 3]> = prior.vertices.iter().map(normalise).collect();
 
         // U7: the face camera looks at the face-region centroid from d_f along +z.
         let mut centroid = [0.0f64; 3];
@@ -405,12 +450,14 @@ impl PortraitCapture {
                     .collect()
             })
             .collect();
-        Self {
+        Ok(Self {
             config: config.clone(),
             bank,
             canonical,
             metres_per_unit: 1.0 / f64::from(scale),
             centre,
+            body_betas,
+            body_fit,
             head_height,
             face_camera,
             face_crop,
@@ -418,6 +465,6 @@ impl PortraitCapture {
             face_depth,
             eval_cameras,
             eval_targets,
-        }
+        })
     }
 }

@@ -56,7 +56,7 @@ impl Aag {
     /// A fresh run, guided by the configured model (the mixture oracle by default).
     pub fn assemble(config: AagConfig, device: &Device) -> Result<Self, AagError> {
         device.seed(config.seed);
-        let capture = PortraitCapture::build(&config.data, device);
+        let capture = PortraitCapture::build(&config.data, device)?;
         let data = &config.data;
         let (model, guidance): (Box<dyn ScoreModel>, String) = match &config.guidance_model {
             Some(path) => {
@@ -90,11 +90,25 @@ impl Aag {
         };
         let decisions = vec![
             guidance,
-            format!(
-                "body prior: the built-in body with the prompted identity's true shape in the \
-                 {:?} canonical pose (no keypoint fit yet), normalised to {:.4} m per unit",
-                data.canonical, capture.metres_per_unit
-            ),
+            match &capture.body_fit {
+                Some(fit) => format!(
+                    "body prior: the built-in body fitted to the {}² portrait's BODY_25 keypoints \
+                     ({} px noise): reprojection {:.2} px, joints {:.0} mm from the truth, rest \
+                     height {:+.1} %; {:?} canonical pose, {:.4} m per unit",
+                    data.portrait_size,
+                    data.keypoint_noise_px,
+                    fit.reprojection_rms_px,
+                    fit.mpjpe_m * 1e3,
+                    fit.height_error * 100.0,
+                    data.canonical,
+                    capture.metres_per_unit
+                ),
+                None => format!(
+                    "body prior: the prompted identity's true shape (data.body_fit = false) in the \
+                     {:?} canonical pose, {:.4} m per unit",
+                    data.canonical, capture.metres_per_unit
+                ),
+            },
             format!(
                 "face loss: crop of identity {} from the fixed face camera, weight {} from step \
                  {}, line of sight ×{}",

@@ -143,3 +143,47 @@ impl ScoreModel for BurnScore {
         ])
     }
 }
+
+/// The denoiser's TOML for [`crate::onnx_score::OnnxScore`] (graph `tiny.onnx`, embeddings
+/// `prompts.safetensors` beside it; a fixed batch of [`EXPORT_ROWS`] rows).
+pub const GUIDANCE_TOML: &str = "graph = \"tiny.onnx\"\nprompt_embeddings = \"prompts.safetensors\"\n\
+     prediction = \"epsilon\"\nbatch = 2\noutputs = [\"eps_rgb\", \"eps_depth\"]\n\
+     [inputs]\nsamples = [\"sample_rgb\", \"sample_depth\"]\ntimestep = \"timestep\"\n\
+     timestep_type = \"float32\"\nencoder_hidden_states = \"encoder_hidden_states\"\n\
+     [schedule]\nzero_snr = true\n";
+
+/// Rows of the exported graph: burn-onnx 0.22 cannot keep one symbolic axis shared by several
+/// inputs, so the graph has a fixed row count and the TOML's `batch` chunks any call.
+pub const EXPORT_ROWS: usize = 2;
+
+/// Exports `net` (inputs `size`² pixels, `prompts`' token shape) as `dir/tiny.onnx` with its
+/// inputs and outputs named, writes `prompts` and the TOML beside it, and returns the TOML's
+/// path (what `train-aag --guidance-config` takes).
+pub fn write_guidance(
+    net: &TinyDenoiser,
+    prompts: &PromptEmbeddings,
+    size: usize,
+    dir: &std::path::Path,
+) -> Result<std::path::PathBuf, AagError> {
+    let device = net.conv_in.weight.val().device();
+    let rows = EXPORT_ROWS;
+    let sample = (
+        Tensor::<4>::zeros([rows, 3, size, size], &device),
+        Tensor::<4>::zeros([rows, 1, size, size], &device),
+        Tensor::<1>::ones([rows], &device),
+        Tensor::<3>::zeros([rows, prompts.tokens, prompts.channels], &device),
+    );
+    let graph = dir.join("tiny.onnx");
+    let model = burn_onnx::export::OnnxExporter::new()
+        .export(net, sample, |m: &TinyDenoiser, x| m.forward(x))
+        .map_err(|e| {
+            AagError::input(graph.display().to_string(), format!("export failed ({e})"))
+        })?;
+    splatzoo_train::onnx::write_graph(model.as_bytes(), &INPUTS, &OUTPUTS, &graph)
+        .map_err(|e| AagError::input(graph.display().to_string(), e.to_string()))?;
+    prompts.write(&dir.join("prompts.safetensors"))?;
+    let path = dir.join("guidance.toml");
+    splatzoo_models::files::write_atomically(&path, |tmp| std::fs::write(tmp, GUIDANCE_TOML))
+        .map_err(|e| AagError::input(path.display().to_string(), e.to_string()))?;
+    Ok(path)
+}

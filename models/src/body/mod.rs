@@ -2,6 +2,7 @@
 //! differentiable forward kinematics and linear blend skinning ([`lbs`]).
 
 pub mod builtin;
+pub mod fit;
 pub mod lbs;
 pub mod model;
 pub mod npz;

@@ -1,10 +1,11 @@
 //! The models crate's integration tests, one binary: mesh anchors, the built-in body, linear
 //! blend skinning, vertex normals, shared networks (ResNet, FPN, hash encoding, weight files),
-//! body-model files (npz, pkl), skeleton priors, rotations and ray casting.
+//! body-model files (npz, pkl), the keypoint body fit, skeleton priors, rotations and ray casting.
 
 mod anchor;
 mod builtin;
 mod common;
+mod fit;
 mod hash_grid;
 mod knn;
 mod lbs;

@@ -1,5 +1,6 @@
 //! `animate-aag`: drives a trained `train-aag` avatar (its checkpoint, format checked) zero-shot
-//! with a pose sequence (an AMASS-layout `.npz` via `--poses`, or the built-in walk then wave)
+//! with a pose sequence (an AMASS-layout `.npz` via `--poses`, poses fitted to a video's
+//! OpenPose JSON via `--keypoints`, or the built-in walk then wave)
 //! through the U9 surface binding, and writes `frame_XXXX.png` (avatar | the prompted identity
 //! posed alike), `animation.gif`, a posed INRIA `frame_XXXX.ply` per frame and `scores.json`
 //! (PSNR/SSIM to the identity per frame, the canonical-pose PSNR, the gap, culled rows, fps).
@@ -13,8 +14,9 @@ use splatzoo_aagaussian::Aag;
 use splatzoo_aagaussian::animate::{FrameOutput, JOINTS, animate, builtin_motion};
 use splatzoo_aagaussian::data::PortraitCapture;
 use splatzoo_aagaussian::trainer::AVATAR;
+use splatzoo_aagaussian::video_poses::{VideoCamera, poses_from_keypoints};
 use splatzoo_datasets::files::write_atomically;
-use splatzoo_datasets::pose_sequence::{UpAxis, load_driving_sequence};
+use splatzoo_datasets::pose_sequence::{UpAxis, load_driving_sequence, write_pose_sequence};
 use splatzoo_train::TrainError;
 use splatzoo_train::backend::Backend;
 use splatzoo_train::checkpoint::Checkpoint;
@@ -34,6 +36,17 @@ struct Args {
     /// The up axis of the `--poses` file's world (matters with `--root`).
     #[arg(long, value_enum, default_value_t = UpAxis::Z)]
     up: UpAxis,
+    /// A motion video's OpenPose JSON, one file per frame: its poses are fitted frame by
+    /// frame and drive the avatar (written as `poses.npz`).
+    #[arg(long, conflicts_with = "poses")]
+    keypoints: Option<PathBuf>,
+    /// The video's focal length and image size, pixels (with `--keypoints`).
+    #[arg(long, default_value_t = 1000.0)]
+    focal: f64,
+    #[arg(long, default_value_t = 720)]
+    image_width: u32,
+    #[arg(long, default_value_t = 1280)]
+    image_height: u32,
     /// Keep the sequence's root orientation.
     #[arg(long)]
     root: bool,
@@ -61,22 +74,42 @@ fn run(args: Args) -> Result<(), TrainError> {
     let config = checkpoint_config::<Aag>(&checkpoint)?;
     let device = args.backend.device();
     let set = GaussianSet::load(&checkpoint, &format!("{AVATAR}.splats"), &device)?;
-    let capture = PortraitCapture::build(&config.data, &device);
+    let capture = PortraitCapture::build(&config.data, &device).map_err(TrainError::from)?;
     let mut animation = config.animation.clone();
     animation.root |= args.root;
     if let Some(size) = args.size {
         animation.size = size;
     }
-    let sequence = match &args.poses {
-        Some(path) => {
-            let shapes = capture.bank.identities[0].identity.betas.len();
-            load_driving_sequence(path, JOINTS, shapes, args.up)?
-        }
-        None => builtin_motion(args.frames.unwrap_or(animation.frames), animation.fps),
-    };
     std::fs::create_dir_all(&args.out).map_err(|e| {
         splatzoo_datasets::DatasetError::file(&args.out, format!("cannot create ({e})"))
     })?;
+    let sequence = match (&args.poses, &args.keypoints) {
+        (Some(path), _) => {
+            let shapes = capture.bank.identities[0].identity.betas.len();
+            load_driving_sequence(path, JOINTS, shapes, args.up)?
+        }
+        (None, Some(dir)) => {
+            let camera = VideoCamera {
+                focal_px: args.focal,
+                width: args.image_width,
+                height: args.image_height,
+            };
+            let (sequence, fits) = poses_from_keypoints(dir, camera, animation.fps, &device)
+                .map_err(TrainError::from)?;
+            let worst = fits
+                .iter()
+                .map(|f| f.reprojection_rms_px)
+                .fold(0.0, f64::max);
+            println!(
+                "fitted {} frames of {} (worst reprojection {worst:.2} px)",
+                fits.len(),
+                dir.display()
+            );
+            write_pose_sequence(&args.out.join("poses.npz"), &sequence)?;
+            sequence
+        }
+        (None, None) => builtin_motion(args.frames.unwrap_or(animation.frames), animation.fps),
+    };
     let scores = animate(
         &set,
         &capture,

@@ -86,9 +86,10 @@ fn capture() -> PortraitCapture {
         eval_azimuths: 1,
         eval_elevations: vec![0.0],
         eval_size: 16,
+        body_fit: false,
         ..PortraitConfig::default()
     };
-    PortraitCapture::build(&config, &Backend::Flex.device())
+    PortraitCapture::build(&config, &Backend::Flex.device()).expect("a capture")
 }
 
 /// The grid search finds the brute force's distance on the canonical body; posing by the

@@ -2,10 +2,14 @@
 //! point-mass oracle against its closed form, v- and ε-prediction agreeing, the clipping, the
 //! guidance forms' fixed points, the surrogate's gradient, the U9 binding, the animation of a
 //! reference avatar, the ONNX guidance path against its Burn twin,
-//! the Monte-Carlo moments of SDS under the mixture, and the trainer's schedule and resume.
+//! the Monte-Carlo moments of SDS under the mixture, and the trainer's schedule and resume,
+//! the portrait's body fit, poses fitted to a synthetic video's keypoints, and
+//! three steps on NdArray and wgpu against Flex.
 
+mod backends;
 mod binding;
 mod guidance;
 mod onnx;
 mod sds;
 mod trainer;
+mod video;

@@ -4,8 +4,6 @@
 //! does not fit is named in the error.
 
 use crate::sds::crate_seed;
-use burn::tensor::{Tensor, TensorData};
-use burn_onnx::export::OnnxExporter;
 use splatzoo_aagaussian::Aag;
 use splatzoo_aagaussian::config::AagConfig;
 use splatzoo_aagaussian::data::PortraitConfig;
@@ -16,11 +14,10 @@ use splatzoo_aagaussian::score::{
     Conditioning, LatentBatch, Prediction, PromptKind, ScoreModel, ViewClass,
 };
 use splatzoo_aagaussian::sds::{SdsConfig, SdsView};
-use splatzoo_aagaussian::tiny_unet::{BurnScore, INPUTS, OUTPUTS, TinyDenoiser};
+use splatzoo_aagaussian::tiny_unet::{BurnScore, TinyDenoiser, write_guidance};
 use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_rasterizer::Camera;
 use splatzoo_train::backend::Backend;
-use splatzoo_train::onnx::write_graph;
 use std::path::{Path, PathBuf};
 
 const TOKENS: usize = 5;
@@ -46,35 +43,9 @@ fn prompts(rng: &mut Rng) -> PromptEmbeddings {
     )
 }
 
-fn inputs(rows: usize, size: usize) -> (Tensor<4>, Tensor<4>, Tensor<1>, Tensor<3>) {
-    let device = Backend::Flex.device();
-    (
-        Tensor::zeros([rows, 3, size, size], &device),
-        Tensor::zeros([rows, 1, size, size], &device),
-        Tensor::from_data(TensorData::new(vec![1.0f32; rows], [rows]), &device),
-        Tensor::zeros([rows, TOKENS, CHANNELS], &device),
-    )
-}
-
-/// Exports `net` with a dynamic row axis and writes its TOML and embeddings beside it.
+/// Exports `net` for 8² inputs and writes its TOML and embeddings beside it.
 fn write_model(net: &TinyDenoiser, prompts: &PromptEmbeddings, dir: &Path) -> PathBuf {
-    // Exported with a fixed row count (burn-onnx cannot keep one symbolic axis shared by
-    // several inputs); `batch = 2` in the TOML runs any number of rows through it.
-    let model = OnnxExporter::new()
-        .export(net, inputs(2, 8), |m: &TinyDenoiser, x| m.forward(x))
-        .expect("the tiny denoiser exports");
-    write_graph(model.as_bytes(), &INPUTS, &OUTPUTS, &dir.join("tiny.onnx")).expect("written");
-    prompts
-        .write(&dir.join("prompts.safetensors"))
-        .expect("written");
-    let toml = "graph = \"tiny.onnx\"\nprompt_embeddings = \"prompts.safetensors\"\n\
-         prediction = \"epsilon\"\nbatch = 2\noutputs = [\"eps_rgb\", \"eps_depth\"]\n\
-         [inputs]\nsamples = [\"sample_rgb\", \"sample_depth\"]\ntimestep = \"timestep\"\n\
-         timestep_type = \"float32\"\nencoder_hidden_states = \"encoder_hidden_states\"\n\
-         [schedule]\nzero_snr = true\n";
-    let path = dir.join("guidance.toml");
-    std::fs::write(&path, toml).expect("written");
-    path
+    write_guidance(net, prompts, 8, dir).expect("exported")
 }
 
 fn camera() -> Camera {
@@ -247,6 +218,7 @@ fn the_trainer_steps_with_the_onnx_model() {
             eval_azimuths: 1,
             eval_elevations: vec![0.0],
             eval_size: 8,
+            body_fit: false,
             ..PortraitConfig::default()
         },
         ..AagConfig::default()

@@ -25,6 +25,7 @@ fn tiny(seed: u64) -> AagConfig {
             eval_azimuths: 1,
             eval_elevations: vec![0.0],
             eval_size: 8,
+            body_fit: false,
             ..PortraitConfig::default()
         },
         ..AagConfig::default()
@@ -124,4 +125,31 @@ fn face_weights_sum_to_one_and_scale_the_gradient() {
             );
         }
     }
+}
+
+/// The body prior comes from the portrait's keypoints: the fit reprojects within the noise,
+/// lands near the true shape, and the avatar's canonical body is the fitted one.
+#[test]
+fn the_body_prior_is_fitted_from_the_portrait() {
+    let config = PortraitConfig {
+        identities: 2,
+        face_size: 8,
+        eval_azimuths: 1,
+        eval_elevations: vec![0.0],
+        eval_size: 8,
+        ..PortraitConfig::default()
+    };
+    let device = Backend::Flex.device();
+    let capture =
+        splatzoo_aagaussian::data::PortraitCapture::build(&config, &device).expect("a capture");
+    let fit = capture.body_fit.as_ref().expect("fitted");
+    assert!(fit.reprojection_rms_px < 4.0, "{fit:?}");
+    assert!(fit.height_error.abs() < 0.07, "{fit:?}");
+    assert!(fit.mpjpe_m < 0.2, "{fit:?}");
+    let truth = &capture.bank.identities[config.prompt].identity.betas;
+    assert_ne!(&capture.body_betas, truth);
+    assert_eq!(capture.body_betas, fit.betas);
+    let keypoints = fit.keypoints.as_ref().expect("kept");
+    assert_eq!(keypoints.body.len(), 25);
+    assert_eq!(keypoints.body.iter().filter(|k| k[2] > 0.0).count(), 23);
 }

@@ -1,0 +1,161 @@
+//! The body prior from the portrait (§3.2 of AAGaussian; spec §7): the prompted identity
+//! photographed from the front in its canonical pose by a known camera, its BODY_25 keypoints
+//! projected from the true mesh with pixel noise (what an OpenPose detector would give), and
+//! the keypoint fit of [`splatzoo_models::body::fit`] recovering the body's shape with the
+//! floor known. The avatar's canonical mesh is the fitted body, never the true one; the
+//! identity's truth only grades the fit.
+
+use crate::error::AagError;
+use burn::tensor::Device;
+use serde::{Deserialize, Serialize};
+use splatzoo_datasets::openpose::PersonKeypoints;
+use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_datasets::synth::scene::posed_once;
+use splatzoo_models::body::builtin_body;
+use splatzoo_models::body::fit::{
+    FitConfig, KeypointTarget, Observation, PinholeCamera, TORSO, body25_targets, fit_body,
+};
+use splatzoo_rasterizer::Camera;
+
+/// How the portrait's body was fitted, and how well (against the identity's truth).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PortraitFit {
+    pub betas: Vec<f64>,
+    pub reprojection_rms_px: f64,
+    /// Mean 3-D error of the 22 body joints in the portrait's pose, metres.
+    pub mpjpe_m: f64,
+    /// Fitted rest height over true rest height, minus 1.
+    pub height_error: f64,
+    /// The keypoints the fit saw (BODY_25; confidence 0 where the body marks nothing).
+    #[serde(skip)]
+    pub keypoints: Option<PersonKeypoints>,
+}
+
+/// The portrait camera: front, 3.2 m away at chest height, 40° across, `size`² pixels.
+pub fn portrait_camera(size: u32) -> Camera {
+    Camera::look_at(
+        [0.0, -0.1, 3.2],
+        [0.0, -0.1, 0.0],
+        [0.0, 1.0, 0.0],
+        40.0,
+        size,
+        size,
+    )
+}
+
+fn pinhole(camera: &Camera) -> PinholeCamera {
+    PinholeCamera {
+        fx: f64::from(camera.fx),
+        fy: f64::from(camera.fy),
+        cx: f64::from(camera.cx),
+        cy: f64::from(camera.cy),
+        world_to_camera: camera.world_to_camera.map(|row| row.map(f64::from)),
+    }
+}
+
+fn rest_height(betas: &[f64], device: &Device) -> f64 {
+    let frame = posed_once(betas, &[0.0; 72], device);
+    let (lo, hi) = frame
+        .vertices
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| {
+            (a.min(v[1]), b.max(v[1]))
+        });
+    f64::from(hi - lo)
+}
+
+/// Fits the body of an identity of shape `betas` seen in `pose` from a `size`² front portrait
+/// with keypoint noise `noise_px` (seeded).
+pub fn fit_portrait(
+    betas: &[f64],
+    pose: &[f64; 72],
+    size: u32,
+    noise_px: f64,
+    seed: u64,
+    device: &Device,
+) -> Result<PortraitFit, AagError> {
+    let body = builtin_body();
+    let truth = posed_once(betas, pose, device);
+    let camera = pinhole(&portrait_camera(size));
+    let point = |t: KeypointTarget| -> [f64; 3] {
+        match t {
+            KeypointTarget::Joint(j) => truth.joints[j].map(f64::from),
+            KeypointTarget::Vertex(v) => truth.vertices[v].map(f64::from),
+        }
+    };
+    let mut rng = Rng(seed);
+    let targets = body25_targets(|n| body.landmark(n));
+    let mut observations = Vec::new();
+    let mut keypoints = Vec::with_capacity(25);
+    for target in targets {
+        let seen = target.and_then(|t| camera.project(point(t)).map(|p| (t, p)));
+        match seen {
+            Some((t, p)) => {
+                let pixel = [
+                    p[0] + noise_px * rng.normal(),
+                    p[1] + noise_px * rng.normal(),
+                ];
+                observations.push(Observation {
+                    target: t,
+                    pixel,
+                    confidence: 0.9,
+                });
+                keypoints.push([pixel[0] as f32, pixel[1] as f32, 0.9]);
+            }
+            None => keypoints.push([0.0; 3]),
+        }
+    }
+    let feet: Vec<KeypointTarget> = ["left_heel", "right_heel", "left_toe", "right_toe"]
+        .iter()
+        .filter_map(|n| body.landmark(n))
+        .map(|v| KeypointTarget::Vertex(v as usize))
+        .collect();
+    let ground = feet
+        .iter()
+        .map(|&f| point(f)[1])
+        .fold(f64::INFINITY, f64::min);
+    let config = FitConfig {
+        ground: Some(ground),
+        feet,
+        ..FitConfig::default()
+    };
+    let fit = fit_body(
+        &body.model,
+        &observations,
+        &camera,
+        &TORSO,
+        &config,
+        None,
+        device,
+    )
+    .map_err(|e| AagError::input("portrait keypoints", e.to_string()))?;
+    let fitted = posed_once(&fit.betas, &vec_to_pose(&fit.pose), device);
+    let mpjpe_m = (0..22)
+        .map(|j| {
+            let (a, b) = (fitted.joints[j], truth.joints[j]);
+            (0..3)
+                .map(|k| (f64::from(a[k]) + fit.translation[k] - f64::from(b[k])).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .sum::<f64>()
+        / 22.0;
+    Ok(PortraitFit {
+        height_error: rest_height(&fit.betas, device) / rest_height(betas, device) - 1.0,
+        betas: fit.betas,
+        reprojection_rms_px: fit.reprojection_rms_px,
+        mpjpe_m,
+        keypoints: Some(PersonKeypoints {
+            body: keypoints,
+            face: Vec::new(),
+            left_hand: Vec::new(),
+            right_hand: Vec::new(),
+        }),
+    })
+}
+
+fn vec_to_pose(pose: &[f64]) -> [f64; 72] {
+    let mut out = [0.0; 72];
+    out.copy_from_slice(&pose[..72]);
+    out
+}

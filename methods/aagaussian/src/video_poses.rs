@@ -1,0 +1,103 @@
+//! Poses from a motion video (§3.4 of AAGaussian: OpenPose on every frame, then a body fit per
+//! frame): a folder of OpenPose JSON files, one per frame, fitted frame by frame by
+//! [`splatzoo_models::body::fit::fit_sequence`] (the first frame in full, each next one from
+//! the previous with the shape held) into a pose sequence that drives the avatar.
+//!
+//! The video's camera: a pinhole of focal length `focal_px` with the principal point at the
+//! image centre, at the world origin looking down −z with +y up (the world the fitted root
+//! orientation is expressed in; the avatar is driven by the 21 body joints only, \[P\]).
+
+use crate::animate::JOINTS;
+use crate::error::AagError;
+use burn::tensor::Device;
+use splatzoo_datasets::openpose::{keypoint_files, read_main_person};
+use splatzoo_datasets::pose_sequence::PoseSequence;
+use splatzoo_models::body::builtin_body;
+use splatzoo_models::body::fit::{
+    BodyFit, FitConfig, Observation, PinholeCamera, TORSO, body25_targets, fit_sequence,
+};
+use std::path::Path;
+
+/// The video camera's intrinsics.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VideoCamera {
+    pub focal_px: f64,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl VideoCamera {
+    /// The pinhole at the origin looking down −z, +y up, image y down.
+    pub fn pinhole(&self) -> PinholeCamera {
+        PinholeCamera {
+            fx: self.focal_px,
+            fy: self.focal_px,
+            cx: 0.5 * f64::from(self.width),
+            cy: 0.5 * f64::from(self.height),
+            world_to_camera: [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, -1.0, 0.0, 0.0],
+                [0.0, 0.0, -1.0, 0.0],
+            ],
+        }
+    }
+}
+
+/// One frame's BODY_25 keypoints as observations of the built-in body.
+pub fn body25_observations(body: &[[f32; 3]]) -> Vec<Observation> {
+    let targets = body25_targets(|n| builtin_body().landmark(n));
+    targets
+        .iter()
+        .zip(body)
+        .filter_map(|(target, k)| {
+            target.map(|t| Observation {
+                target: t,
+                pixel: [f64::from(k[0]), f64::from(k[1])],
+                confidence: f64::from(k[2]),
+            })
+        })
+        .collect()
+}
+
+/// Fits every frame of `dir` and returns the driving sequence (24 joints, no translation) and
+/// each frame's fit.
+pub fn poses_from_keypoints(
+    dir: &Path,
+    camera: VideoCamera,
+    fps: f64,
+    device: &Device,
+) -> Result<(PoseSequence, Vec<BodyFit>), AagError> {
+    let dataset = |e| AagError::Train(splatzoo_train::TrainError::Dataset(e));
+    let files = keypoint_files(dir).map_err(dataset)?;
+    let mut frames = Vec::with_capacity(files.len());
+    for file in &files {
+        let person = read_main_person(file).map_err(dataset)?.ok_or_else(|| {
+            AagError::input(file.display().to_string(), "no person in this frame")
+        })?;
+        frames.push(body25_observations(&person.body));
+    }
+    let model = &builtin_body().model;
+    let fits = fit_sequence(
+        model,
+        &frames,
+        &camera.pinhole(),
+        &TORSO,
+        &FitConfig::default(),
+        device,
+    )
+    .map_err(|e| AagError::input(dir.display().to_string(), e.to_string()))?;
+    let shape_count = model.shape_count();
+    let mut sequence = PoseSequence {
+        joints: JOINTS,
+        poses: Vec::with_capacity(fits.len() * 3 * JOINTS),
+        translations: vec![0.0; 3 * fits.len()],
+        betas: Vec::with_capacity(fits.len() * shape_count),
+        shape_count,
+        fps: Some(fps),
+    };
+    for fit in &fits {
+        sequence.poses.extend_from_slice(&fit.pose[..3 * JOINTS]);
+        sequence.betas.extend_from_slice(&fit.betas);
+    }
+    Ok((sequence, fits))
+}
