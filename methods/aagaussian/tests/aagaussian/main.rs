@@ -4,10 +4,11 @@
 //! reference avatar, the ONNX guidance path against its Burn twin,
 //! the Monte-Carlo moments of SDS under the mixture, and the trainer's schedule and resume,
 //! the portrait's body fit, poses fitted to a synthetic video's keypoints, and
-//! three steps on NdArray and wgpu against Flex.
+//! three steps on NdArray and wgpu against Flex, and the extremes.
 
 mod backends;
 mod binding;
+mod extremes;
 mod guidance;
 mod onnx;
 mod sds;
