@@ -77,6 +77,7 @@ fn child(backend: Backend, steps: usize) -> Vec<f64> {
         &net,
         &prompts,
         trainer.config.render_size as usize,
+        1.0,
         dir.path(),
     )
     .expect("exported");

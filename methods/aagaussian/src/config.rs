@@ -21,6 +21,36 @@ use splatzoo_train::harness::MethodConfig;
 use splatzoo_train::optimizer::LearningRates;
 use std::path::PathBuf;
 
+/// Where the VAE encoder's weights are and its shape (defaults: Stable Diffusion's); the
+/// scaling factor is the guidance model's `latent_scale`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VaeSpec {
+    /// `diffusion_pytorch_model.safetensors` of an `AutoencoderKL`.
+    pub weights: PathBuf,
+    #[serde(default = "sd_blocks")]
+    pub block_out_channels: Vec<usize>,
+    #[serde(default = "two")]
+    pub layers_per_block: usize,
+    #[serde(default = "four")]
+    pub latent_channels: usize,
+    #[serde(default = "thirty_two")]
+    pub norm_groups: usize,
+}
+
+fn sd_blocks() -> Vec<usize> {
+    vec![128, 256, 512, 512]
+}
+fn two() -> usize {
+    2
+}
+fn four() -> usize {
+    4
+}
+fn thirty_two() -> usize {
+    32
+}
+
 /// The in-project guidance (S2; S1 with one identity and no data noise).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -99,6 +129,9 @@ pub struct AagConfig {
     /// A user's ONNX denoiser, described by a TOML (see [`crate::onnx_score`]); unset: the
     /// mixture oracle guides.
     pub guidance_model: Option<PathBuf>,
+    /// The latent encoder a latent-space denoiser needs (SD's VAE by diffusers' names); unset:
+    /// the branches are the renders themselves (pixel space).
+    pub vae: Option<VaeSpec>,
     pub sds: SdsConfig,
     pub cameras: CameraConfig,
     pub face: FaceConfig,
@@ -131,6 +164,7 @@ impl Default for AagConfig {
             render_size: 64,
             oracle: OracleConfig::default(),
             guidance_model: None,
+            vae: None,
             sds: SdsConfig {
                 // \[C\] classic CFG on the stand-in (HumanGaussian's ANPG is one flag away):
                 // under an exact oracle ANPG's negative term `ε_∅ − ε_neg` is a constant push

@@ -3,14 +3,17 @@
 //! bit-exactly on the CPU (the capture is rebuilt from its seed; the avatar, its optimiser,
 //! density statistics and both random states are stored) and the exports.
 
-use crate::config::AagConfig;
+use crate::config::{AagConfig, VaeSpec};
 use crate::data::PortraitCapture;
 use crate::error::AagError;
 use crate::onnx_score::OnnxScore;
 use crate::score::ScoreModel;
 use crate::trainer::{AVATAR, AagTrainer, mixture_oracle};
+use burn::module::Module;
 use burn::tensor::Device;
 use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_models::networks::vae::{VaeConfig, VaeEncoder};
+use splatzoo_models::networks::weights::WeightFile;
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::harness::{Evaluation, Method, Say, Scores, StepReport};
@@ -118,9 +121,63 @@ impl Aag {
                 config.face.line_of_sight
             ),
         ];
-        let trainer = AagTrainer::new(config, capture, model, &device.clone());
+        let vae = match &config.vae {
+            Some(spec) => Some(load_vae(
+                spec,
+                model.latent_scale(),
+                config.render_size,
+                device,
+            )?),
+            None => None,
+        };
+        let mut trainer = AagTrainer::new(config, capture, model, &device.clone());
+        trainer.vae = vae;
         Ok(Self { trainer, decisions })
     }
+}
+
+/// The VAE encoder `spec` names, on `device`'s autodiff twin without parameter gradients,
+/// scaling by the model's `latent_scale`.
+fn load_vae(
+    spec: &VaeSpec,
+    latent_scale: f64,
+    render_size: u32,
+    device: &Device,
+) -> Result<VaeEncoder, AagError> {
+    let config = VaeConfig {
+        block_out_channels: spec.block_out_channels.clone(),
+        layers_per_block: spec.layers_per_block,
+        latent_channels: spec.latent_channels,
+        norm_groups: spec.norm_groups,
+        scaling_factor: latent_scale,
+    };
+    let what = format!("vae {}", spec.weights.display());
+    if config.block_out_channels.is_empty()
+        || config.norm_groups == 0
+        || config
+            .block_out_channels
+            .iter()
+            .any(|c| c % config.norm_groups != 0)
+    {
+        return Err(AagError::input(
+            what,
+            "block_out_channels must be non-empty multiples of norm_groups",
+        ));
+    }
+    if render_size as usize % config.downsampling() != 0 {
+        return Err(AagError::input(
+            what,
+            format!(
+                "render_size {render_size} is not a multiple of the encoder's downsampling {}",
+                config.downsampling()
+            ),
+        ));
+    }
+    let file = WeightFile::read(&spec.weights)
+        .map_err(|e| AagError::input(what.clone(), e.to_string()))?;
+    let vae = VaeEncoder::load(&config, &file, &device.clone().autodiff())
+        .map_err(|e| AagError::input(what, e.to_string()))?;
+    Ok(vae.no_grad())
 }
 
 impl Method for Aag {

@@ -34,26 +34,41 @@ pub struct TinyDenoiser {
     text: Linear,
     out_rgb: Conv2d,
     out_depth: Conv2d,
+    /// Channels of the two branches (3 and 1 in pixel space; the latent width after a VAE).
+    channels: [usize; 2],
 }
 
 impl TinyDenoiser {
-    /// Random weights (the device's seed), `width` hidden channels, `channels`-wide text rows.
+    /// Random weights (the device's seed), `width` hidden channels, `channels`-wide text rows,
+    /// pixel-space branches (RGB and depth).
     pub fn new(width: usize, channels: usize, device: &Device) -> Self {
+        Self::with_branches([3, 1], width, channels, device)
+    }
+
+    /// As [`Self::new`] with `branches` channels in each branch.
+    pub fn with_branches(
+        branches: [usize; 2],
+        width: usize,
+        channels: usize,
+        device: &Device,
+    ) -> Self {
         let conv = |i, o| {
             Conv2dConfig::new([i, o], [3, 3])
                 .with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1))
                 .init(device)
         };
         Self {
-            conv_in: conv(4, width),
+            conv_in: conv(branches[0] + branches[1], width),
             time: LinearConfig::new(1, width).init(device),
             text: LinearConfig::new(channels, width).init(device),
-            out_rgb: conv(width, 3),
-            out_depth: conv(width, 1),
+            out_rgb: conv(width, branches[0]),
+            out_depth: conv(width, branches[1]),
+            channels: branches,
         }
     }
 
-    /// `([N, 3, H, W], [N, 1, H, W], [N] timesteps as floats, [N, L, D])` → the two branches' outputs.
+    /// `([N, C₁, H, W], [N, C₂, H, W], [N] timesteps as floats, [N, L, D])` → the two branches'
+    /// outputs.
     /// No op depends on N (the exported row axis stays dynamic).
     pub fn forward(
         &self,
@@ -146,30 +161,36 @@ impl ScoreModel for BurnScore {
 
 /// The denoiser's TOML for [`crate::onnx_score::OnnxScore`] (graph `tiny.onnx`, embeddings
 /// `prompts.safetensors` beside it; a fixed batch of [`EXPORT_ROWS`] rows).
-pub const GUIDANCE_TOML: &str = "graph = \"tiny.onnx\"\nprompt_embeddings = \"prompts.safetensors\"\n\
-     prediction = \"epsilon\"\nbatch = 2\noutputs = [\"eps_rgb\", \"eps_depth\"]\n\
-     [inputs]\nsamples = [\"sample_rgb\", \"sample_depth\"]\ntimestep = \"timestep\"\n\
-     timestep_type = \"float32\"\nencoder_hidden_states = \"encoder_hidden_states\"\n\
-     [schedule]\nzero_snr = true\n";
+pub fn guidance_toml(latent_scale: f64) -> String {
+    format!(
+        "graph = \"tiny.onnx\"\nprompt_embeddings = \"prompts.safetensors\"\n\
+         prediction = \"epsilon\"\nbatch = {EXPORT_ROWS}\nlatent_scale = {latent_scale:?}\n\
+         outputs = [\"eps_rgb\", \"eps_depth\"]\n\
+         [inputs]\nsamples = [\"sample_rgb\", \"sample_depth\"]\ntimestep = \"timestep\"\n\
+         timestep_type = \"float32\"\nencoder_hidden_states = \"encoder_hidden_states\"\n\
+         [schedule]\nzero_snr = true\n"
+    )
+}
 
 /// Rows of the exported graph: burn-onnx 0.22 cannot keep one symbolic axis shared by several
 /// inputs, so the graph has a fixed row count and the TOML's `batch` chunks any call.
 pub const EXPORT_ROWS: usize = 2;
 
-/// Exports `net` (inputs `size`² pixels, `prompts`' token shape) as `dir/tiny.onnx` with its
+/// Exports `net` (inputs `size`² pixels or latents, `prompts`' token shape) as `dir/tiny.onnx` with its
 /// inputs and outputs named, writes `prompts` and the TOML beside it, and returns the TOML's
 /// path (what `train-aag --guidance-config` takes).
 pub fn write_guidance(
     net: &TinyDenoiser,
     prompts: &PromptEmbeddings,
     size: usize,
+    latent_scale: f64,
     dir: &std::path::Path,
 ) -> Result<std::path::PathBuf, AagError> {
     let device = net.conv_in.weight.val().device();
     let rows = EXPORT_ROWS;
     let sample = (
-        Tensor::<4>::zeros([rows, 3, size, size], &device),
-        Tensor::<4>::zeros([rows, 1, size, size], &device),
+        Tensor::<4>::zeros([rows, net.channels[0], size, size], &device),
+        Tensor::<4>::zeros([rows, net.channels[1], size, size], &device),
         Tensor::<1>::ones([rows], &device),
         Tensor::<3>::zeros([rows, prompts.tokens, prompts.channels], &device),
     );
@@ -183,7 +204,8 @@ pub fn write_guidance(
         .map_err(|e| AagError::input(graph.display().to_string(), e.to_string()))?;
     prompts.write(&dir.join("prompts.safetensors"))?;
     let path = dir.join("guidance.toml");
-    splatzoo_models::files::write_atomically(&path, |tmp| std::fs::write(tmp, GUIDANCE_TOML))
+    let text = guidance_toml(latent_scale);
+    splatzoo_models::files::write_atomically(&path, |tmp| std::fs::write(tmp, &text))
         .map_err(|e| AagError::input(path.display().to_string(), e.to_string()))?;
     Ok(path)
 }

@@ -16,6 +16,7 @@ use crate::schedule::NoiseSchedule;
 use crate::score::{LatentBatch, ScoreModel};
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_models::networks::vae::VaeEncoder;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render, Splats, rasterize};
 use splatzoo_train::densify::DensifyReport;
 use splatzoo_train::host_f32;
@@ -47,6 +48,8 @@ pub struct AagTrainer {
     pub rng: Rng,
     pub step: usize,
     pub line_of_sight: LineOfSight,
+    /// The latent encoder of a latent-space guidance model (`None`: pixel space).
+    pub vae: Option<VaeEncoder>,
     face_weights: Vec<f32>,
     /// `[S, S, 3]` the face crop.
     face_crop: Tensor<3>,
@@ -133,6 +136,7 @@ impl AagTrainer {
         };
         let face_crop = planar_to_tensor(&capture.face_crop, size, device);
         Self {
+            vae: None,
             face_weights: centre_weights(size, config.face.kappa),
             rng: Rng(config.seed.wrapping_mul(0x9E37_79B9).wrapping_add(17)),
             config,
@@ -193,9 +197,20 @@ impl AagTrainer {
             .splats();
         let cameras: Vec<Camera> = views.iter().map(|v| v.camera).collect();
         let mut renders = render_views(&splats, &cameras)?;
-        let scale = self.model.latent_scale();
-        let z_rgb = rgb_branch(&renders).mul_scalar(scale);
-        let z_depth = depth_branch(&renders).mul_scalar(scale);
+        // z = latent_scale · E(x): the VAE (its scaling factor is the model's) or the identity.
+        let (z_rgb, z_depth) = match &self.vae {
+            Some(vae) => (
+                vae.encode(rgb_branch(&renders)),
+                vae.encode(depth_branch(&renders).repeat_dim(1, 3)),
+            ),
+            None => {
+                let scale = self.model.latent_scale();
+                (
+                    rgb_branch(&renders).mul_scalar(scale),
+                    depth_branch(&renders).mul_scalar(scale),
+                )
+            }
+        };
         let mut inputs = vec![host_batch(&z_rgb)];
         if self.model.branches() == 2 {
             inputs.push(host_batch(&z_depth));

@@ -2,7 +2,7 @@
 //! torchvision's layout ([`resnet`]), a feature pyramid over them fused to one resolution
 //! ([`fpn`]), NeRF's frequency encoding ([`encoding`]), instant-NGP's multi-resolution hash
 //! encoding ([`hash_grid`]) and a hash-encoded MLP field ([`hash_mlp`]), the skip-connected
-//! deformation MLP ([`mlp`]), and safetensors weight files: torchvision-named loading, checkpoints of any module
+//! deformation MLP ([`mlp`]), Stable Diffusion's VAE encoder by diffusers' names ([`vae`]), and safetensors weight files: torchvision-named loading, checkpoints of any module
 //! by parameter path ([`weights`]).
 
 pub mod encoding;
@@ -11,6 +11,7 @@ pub mod hash_grid;
 pub mod hash_mlp;
 pub mod mlp;
 pub mod resnet;
+pub mod vae;
 pub mod weights;
 
 use burn::module::{Module, ModuleMapper, Param};

@@ -1,5 +1,5 @@
 //! The models crate's integration tests, one binary: mesh anchors, the built-in body, linear
-//! blend skinning, vertex normals, shared networks (ResNet, FPN, hash encoding, weight files),
+//! blend skinning, vertex normals, shared networks (ResNet, FPN, hash encoding, SD's VAE encoder, weight files),
 //! body-model files (npz, pkl), the keypoint body fit, skeleton priors, rotations and ray casting.
 
 mod anchor;
@@ -16,3 +16,4 @@ mod pkl;
 mod priors;
 mod raycast;
 mod rotation;
+mod vae;

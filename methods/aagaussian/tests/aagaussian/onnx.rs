@@ -45,7 +45,7 @@ fn prompts(rng: &mut Rng) -> PromptEmbeddings {
 
 /// Exports `net` for 8² inputs and writes its TOML and embeddings beside it.
 fn write_model(net: &TinyDenoiser, prompts: &PromptEmbeddings, dir: &Path) -> PathBuf {
-    write_guidance(net, prompts, 8, dir).expect("exported")
+    write_guidance(net, prompts, 8, 1.0, dir).expect("exported")
 }
 
 fn camera() -> Camera {
@@ -232,4 +232,78 @@ fn the_trainer_steps_with_the_onnx_model() {
         );
         assert_eq!(record.nonfinite, 0);
     }
+}
+
+/// A latent-space model: renders go through a (random, diffusers-named) VAE encoder scaled by
+/// the model's `latent_scale`, the ONNX denoiser works on 4-channel latents, and the gradient
+/// reaches the Gaussians through the encoder.
+#[test]
+fn the_trainer_steps_with_a_latent_model_behind_a_vae() {
+    use splatzoo_aagaussian::config::VaeSpec;
+    use splatzoo_models::networks::vae::{VaeConfig, VaeEncoder};
+    use splatzoo_models::networks::weights::write_safetensors;
+    use splatzoo_train::host_f32;
+
+    let device = Backend::Flex.device();
+    let mut rng = Rng(crate_seed() ^ 4);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let vae_config = VaeConfig {
+        block_out_channels: vec![8, 16],
+        layers_per_block: 1,
+        latent_channels: 4,
+        norm_groups: 4,
+        scaling_factor: 1.0,
+    };
+    let weights = dir.path().join("vae.safetensors");
+    write_safetensors(
+        &weights,
+        &VaeEncoder::new(&vae_config, &device).diffusers_tensors(),
+    )
+    .expect("written");
+    let net = TinyDenoiser::with_branches([4, 4], 4, CHANNELS, &device);
+    // 16² renders → 8² latents.
+    let toml = write_guidance(&net, &prompts(&mut rng), 8, 0.18215, dir.path()).expect("exported");
+    let config = AagConfig {
+        guidance_model: Some(toml),
+        vae: Some(VaeSpec {
+            weights,
+            block_out_channels: vec![8, 16],
+            layers_per_block: 1,
+            latent_channels: 4,
+            norm_groups: 4,
+        }),
+        gaussians: 400,
+        batch: 2,
+        render_size: 16,
+        data: PortraitConfig {
+            identities: 2,
+            face_size: 8,
+            eval_azimuths: 1,
+            eval_elevations: vec![0.0],
+            eval_size: 8,
+            body_fit: false,
+            ..PortraitConfig::default()
+        },
+        ..AagConfig::default()
+    };
+    let mut method = Aag::assemble(config.clone(), &device).expect("assembles");
+    let before = host_f32(&method.trainer.node.set.sh_dc);
+    for _ in 0..2 {
+        let record = method.trainer.train_step().expect("a step");
+        assert!(
+            record.loss.is_finite() && record.sds_rgb > 0.0,
+            "{record:?}"
+        );
+    }
+    assert_ne!(host_f32(&method.trainer.node.set.sh_dc), before);
+
+    let odd = AagConfig {
+        render_size: 15,
+        ..config
+    };
+    let message = Aag::assemble(odd, &device)
+        .err()
+        .expect("odd size")
+        .to_string();
+    assert!(message.contains("downsampling"), "{message}");
 }
