@@ -157,14 +157,14 @@ fn load_vae(
         || config
             .block_out_channels
             .iter()
-            .any(|c| c % config.norm_groups != 0)
+            .any(|c| !c.is_multiple_of(config.norm_groups))
     {
         return Err(AagError::input(
             what,
             "block_out_channels must be non-empty multiples of norm_groups",
         ));
     }
-    if render_size as usize % config.downsampling() != 0 {
+    if !(render_size as usize).is_multiple_of(config.downsampling()) {
         return Err(AagError::input(
             what,
             format!(

@@ -52,7 +52,7 @@ pub struct PinholeCamera {
 impl PinholeCamera {
     /// The pixel of a world point, `None` behind the camera.
     pub fn project(&self, p: [f64; 3]) -> Option<[f64; 2]> {
-        let c = self.to_camera(p);
+        let c = self.camera_point(p);
         (c[2] > 1e-9).then(|| {
             [
                 self.fx * c[0] / c[2] + self.cx,
@@ -61,7 +61,7 @@ impl PinholeCamera {
         })
     }
 
-    fn to_camera(&self, p: [f64; 3]) -> [f64; 3] {
+    fn camera_point(&self, p: [f64; 3]) -> [f64; 3] {
         let m = &self.world_to_camera;
         std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
     }
