@@ -180,6 +180,18 @@ impl AagTrainer {
 
     /// One optimiser step.
     pub fn train_step(&mut self) -> Result<StepRecord, AagError> {
+        if self.node.gaussians() == 0 {
+            return Err(AagError::input(
+                "avatar",
+                format!(
+                    "every Gaussian has been pruned by step {} (densify.min_opacity {}, \
+                     prune_only_min_opacity {}): lower them",
+                    self.step,
+                    self.config.densify.min_opacity,
+                    self.config.densify.prune_only_min_opacity
+                ),
+            ));
+        }
         let config = &self.config;
         let step = self.step;
         let views = config.cameras.sample(

@@ -1,6 +1,7 @@
 //! The whole AAGaussian step on every backend: three steps of the trainer from the same seed on
 //! NdArray and on wgpu (lavapipe without a GPU) render the avatar as Flex's does.
 
+use crate::common::tiny_portrait;
 use burn::tensor::Device;
 use splatzoo_aagaussian::Aag;
 use splatzoo_aagaussian::config::AagConfig;
@@ -19,13 +20,8 @@ fn three_steps(backend: Backend) -> Vec<f32> {
         batch: 2,
         render_size: 16,
         data: PortraitConfig {
-            identities: 2,
-            face_size: 16,
-            eval_azimuths: 1,
-            eval_elevations: vec![0.0],
             eval_size: 32,
-            body_fit: false,
-            ..PortraitConfig::default()
+            ..tiny_portrait(16)
         },
         ..AagConfig::default()
     };

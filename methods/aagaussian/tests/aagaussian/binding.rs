@@ -3,12 +3,13 @@
 //! identity's textured mesh, re-posed by the built-in motion, it stays close to the identity's
 //! own mesh posed alike.
 
+use crate::common::tiny_portrait;
 use crate::sds::crate_seed;
 use splatzoo_aagaussian::animate::{AnimationConfig, animate, builtin_motion, driving_pose};
 use splatzoo_aagaussian::binding::{
     bind, bind_brute_force, closest_point_on_triangle, matrix_quaternion, quaternion_product,
 };
-use splatzoo_aagaussian::data::{PortraitCapture, PortraitConfig, studio_lighting};
+use splatzoo_aagaussian::data::{PortraitCapture, studio_lighting};
 use splatzoo_aagaussian::init::knn_scales;
 use splatzoo_datasets::render::Light;
 use splatzoo_datasets::synth::rng::Rng;
@@ -80,15 +81,7 @@ fn matrix_quaternion_inverts_quaternion_matrix() {
 }
 
 fn capture() -> PortraitCapture {
-    let config = PortraitConfig {
-        identities: 2,
-        face_size: 16,
-        eval_azimuths: 1,
-        eval_elevations: vec![0.0],
-        eval_size: 16,
-        body_fit: false,
-        ..PortraitConfig::default()
-    };
+    let config = tiny_portrait(16);
     PortraitCapture::build(&config, &Backend::Flex.device()).expect("a capture")
 }
 

@@ -8,6 +8,7 @@
 
 mod backends;
 mod binding;
+mod common;
 mod extremes;
 mod guidance;
 mod onnx;

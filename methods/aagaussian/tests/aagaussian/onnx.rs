@@ -3,10 +3,10 @@
 //! driver; `train-aag`'s trainer takes steps guided by it; a TOML or an embeddings file that
 //! does not fit is named in the error.
 
+use crate::common::tiny_portrait;
 use crate::sds::crate_seed;
 use splatzoo_aagaussian::Aag;
 use splatzoo_aagaussian::config::AagConfig;
-use splatzoo_aagaussian::data::PortraitConfig;
 use splatzoo_aagaussian::onnx_score::OnnxScore;
 use splatzoo_aagaussian::prompts::PromptEmbeddings;
 use splatzoo_aagaussian::schedule::NoiseSchedule;
@@ -212,15 +212,7 @@ fn the_trainer_steps_with_the_onnx_model() {
         gaussians: 400,
         batch: 2,
         render_size: 8,
-        data: PortraitConfig {
-            identities: 2,
-            face_size: 8,
-            eval_azimuths: 1,
-            eval_elevations: vec![0.0],
-            eval_size: 8,
-            body_fit: false,
-            ..PortraitConfig::default()
-        },
+        data: tiny_portrait(8),
         ..AagConfig::default()
     };
     let mut method = Aag::assemble(config, &device).expect("assembles");
@@ -275,15 +267,7 @@ fn the_trainer_steps_with_a_latent_model_behind_a_vae() {
         gaussians: 400,
         batch: 2,
         render_size: 16,
-        data: PortraitConfig {
-            identities: 2,
-            face_size: 8,
-            eval_azimuths: 1,
-            eval_elevations: vec![0.0],
-            eval_size: 8,
-            body_fit: false,
-            ..PortraitConfig::default()
-        },
+        data: tiny_portrait(8),
         ..AagConfig::default()
     };
     let mut method = Aag::assemble(config.clone(), &device).expect("assembles");

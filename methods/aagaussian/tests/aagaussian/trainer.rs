@@ -2,6 +2,7 @@
 //! the face term only from its start step, a checkpoint resumes bit-exactly on the CPU, and
 //! the face term's centre weights (spec T7's weight checks).
 
+use crate::common::tiny_portrait;
 use crate::sds::crate_seed;
 use burn::tensor::{Tensor, TensorData};
 use splatzoo_aagaussian::Aag;
@@ -19,21 +20,16 @@ fn tiny(seed: u64) -> AagConfig {
         gaussians: 300,
         batch: 2,
         render_size: 8,
-        data: PortraitConfig {
-            identities: 2,
-            face_size: 8,
-            eval_azimuths: 1,
-            eval_elevations: vec![0.0],
-            eval_size: 8,
-            body_fit: false,
-            ..PortraitConfig::default()
-        },
+        data: tiny_portrait(8),
         ..AagConfig::default()
     };
     config.densify.start = 2;
     config.densify.every = 2;
     config.densify.stop = 6;
     config.densify.grad_threshold = 0.0;
+    // Nothing is pruned for opacity: the schedule is what is tested.
+    config.densify.min_opacity = 0.0;
+    config.densify.prune_only_min_opacity = 0.0;
     config.densify.prune_only_steps = vec![7];
     config.face.start = 5;
     config.face.probability = 1.0;
@@ -132,12 +128,8 @@ fn face_weights_sum_to_one_and_scale_the_gradient() {
 #[test]
 fn the_body_prior_is_fitted_from_the_portrait() {
     let config = PortraitConfig {
-        identities: 2,
-        face_size: 8,
-        eval_azimuths: 1,
-        eval_elevations: vec![0.0],
-        eval_size: 8,
-        ..PortraitConfig::default()
+        body_fit: true,
+        ..tiny_portrait(8)
     };
     let device = Backend::Flex.device();
     let capture =
@@ -152,4 +144,22 @@ fn the_body_prior_is_fitted_from_the_portrait() {
     let keypoints = fit.keypoints.as_ref().expect("kept");
     assert_eq!(keypoints.body.len(), 25);
     assert_eq!(keypoints.body.iter().filter(|k| k[2] > 0.0).count(), 23);
+}
+
+/// Everything pruned is a clear error naming the knobs, not a panic.
+#[test]
+fn an_avatar_pruned_to_nothing_is_an_error() {
+    let device = Backend::Flex.device();
+    let mut config = tiny(crate_seed() % 1000);
+    config.densify.min_opacity = 2.0; // every opacity is below it
+    let mut method = Aag::new(config, &device).expect("assembles");
+    let mut outcome = Ok(());
+    for _ in 0..6 {
+        if let Err(e) = method.trainer.train_step() {
+            outcome = Err(e.to_string());
+            break;
+        }
+    }
+    let message = outcome.expect_err("pruned to nothing after step 4");
+    assert!(message.contains("densify.min_opacity"), "{message}");
 }
