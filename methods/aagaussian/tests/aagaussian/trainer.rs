@@ -27,9 +27,10 @@ fn tiny(seed: u64) -> AagConfig {
     config.densify.every = 2;
     config.densify.stop = 6;
     config.densify.grad_threshold = 0.0;
-    // Nothing is pruned for opacity: the schedule is what is tested.
+    // Nothing is pruned for opacity or size: the schedule is what is tested.
     config.densify.min_opacity = 0.0;
     config.densify.prune_only_min_opacity = 0.0;
+    config.densify.prune_only_max_scale = 100.0;
     config.densify.prune_only_steps = vec![7];
     config.face.start = 5;
     config.face.probability = 1.0;

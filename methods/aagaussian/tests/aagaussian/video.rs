@@ -2,7 +2,6 @@
 //! keypoints with pixel noise, one OpenPose JSON per frame → the per-frame fit → poses whose
 //! root-relative joints are close to the truth's.
 
-use crate::sds::crate_seed;
 use splatzoo_aagaussian::animate::builtin_motion;
 use splatzoo_aagaussian::video_poses::{VideoCamera, poses_from_keypoints};
 use splatzoo_datasets::openpose::{PersonKeypoints, write_keypoints};
@@ -23,7 +22,9 @@ fn root_relative(joints: &[[f32; 3]]) -> Vec<[f64; 3]> {
 #[test]
 fn poses_fitted_from_a_video_follow_the_truth() {
     let device = Backend::Flex.device();
-    let mut rng = Rng(crate_seed());
+    // A fixed body, motion noise and keypoint noise: the fit is deterministic, so the bounds
+    // below are this case's measured figures with a margin.
+    let mut rng = Rng(5);
     let body = builtin_body();
     let betas: Vec<f64> = (0..body.model.shape_count())
         .map(|_| 0.5 * rng.normal())
