@@ -88,6 +88,9 @@ pub struct PortraitConfig {
     /// Pixel noise of the portrait's keypoints, and the portrait's side.
     pub keypoint_noise_px: f64,
     pub portrait_size: u32,
+    /// The oracle shows the prompted identity with another skin and hair tone from each side
+    /// (the spec's `view_variants`; held-out scores use the identity as it is).
+    pub view_variants: bool,
 }
 
 impl Default for PortraitConfig {
@@ -110,6 +113,7 @@ impl Default for PortraitConfig {
             body_fit: true,
             keypoint_noise_px: 2.0,
             portrait_size: 512,
+            view_variants: false,
         }
     }
 }
@@ -147,6 +151,9 @@ pub struct IdentityMesh {
     /// `[V]` normalised canonical vertices.
     pub vertices: Vec<[f32; 3]>,
     pub texture: Texture,
+    /// With `view_variants`: the textures the oracle shows from the body's left and right
+    /// sides (skin lighter and darker, hair recoloured); empty otherwise.
+    pub side_textures: Vec<Texture>,
 }
 
 /// The identities seen from any camera: the oracle's [`Targets`].
@@ -181,14 +188,48 @@ impl IdentityBank {
 
     /// Identity `label`'s textured mesh with its vertices moved to `vertices` (a pose).
     pub fn render_posed(&self, label: usize, vertices: &[[f32; 3]], camera: &Camera) -> MeshRender {
+        self.render_textured(vertices, &self.identities[label].texture, camera)
+    }
+
+    /// What the oracle sees of identity `label` from `camera`: its own texture, or with
+    /// `view_variants` a side variant when the camera is on the body's left or right
+    /// (45° < |azimuth| < 135°, the azimuth measured from the body's front, +z).
+    pub fn oracle_render(&self, label: usize, camera: &Camera) -> MeshRender {
         let mesh = &self.identities[label];
+        let texture = match mesh.side_textures.as_slice() {
+            [left, right] => {
+                let m = &camera.world_to_camera;
+                let centre: [f32; 3] =
+                    std::array::from_fn(|k| -(0..3).map(|r| m[r][k] * m[r][3]).sum::<f32>());
+                let azimuth = f64::from(centre[0])
+                    .atan2(f64::from(centre[2]))
+                    .to_degrees();
+                if (45.0..135.0).contains(&azimuth) {
+                    left
+                } else if (-135.0..-45.0).contains(&azimuth) {
+                    right
+                } else {
+                    &mesh.texture
+                }
+            }
+            _ => &mesh.texture,
+        };
+        self.render_textured(&mesh.vertices, texture, camera)
+    }
+
+    fn render_textured(
+        &self,
+        vertices: &[[f32; 3]],
+        texture: &Texture,
+        camera: &Camera,
+    ) -> MeshRender {
         let instance = MeshInstance {
             positions: vertices,
             faces: &self.faces,
             albedo: Albedo::Textured {
                 coords: &self.uv_coords,
                 corners: &self.uv_faces,
-                texture: &mesh.texture,
+                texture,
             },
             label: 1,
             smooth: true,
@@ -240,7 +281,7 @@ impl Targets for IdentityBank {
     }
 
     fn target(&self, label: usize, camera: &Camera) -> Vec<Vec<f32>> {
-        render_to_branches(&self.render(label, camera))
+        render_to_branches(&self.oracle_render(label, camera))
     }
 }
 
@@ -282,6 +323,26 @@ pub fn planar_rgb(r: &MeshRender) -> Vec<f32> {
         }
     }
     out
+}
+
+/// The spec's `view_variants`: the identity as the oracle shows it from its left (skin 40 %
+/// lighter, hair a warm brown) and from its right (skin 40 % darker, hair a pale blond) — an
+/// honest prior that disagrees with itself across views, as the paper's fragmented and
+/// asymmetric faces suggest a real one does.
+fn side_variants(identity: &Identity) -> [Identity; 2] {
+    let scaled = |c: [f32; 3], f: f32| c.map(|v| (v * f).clamp(0.0, 1.0));
+    [
+        Identity {
+            skin: scaled(identity.skin, 1.4),
+            hair: [0.45, 0.25, 0.1],
+            ..identity.clone()
+        },
+        Identity {
+            skin: scaled(identity.skin, 0.6),
+            hair: [0.85, 0.75, 0.5],
+            ..identity.clone()
+        },
+    ]
 }
 
 impl PortraitCapture {
@@ -358,8 +419,17 @@ impl PortraitCapture {
             identities: identities
                 .iter()
                 .zip(&posed)
-                .map(|(identity, vertices)| IdentityMesh {
+                .enumerate()
+                .map(|(k, (identity, vertices))| IdentityMesh {
                     texture: identity.bake_texture(body, TEXTURE_SIZE),
+                    side_textures: if config.view_variants && k == config.prompt {
+                        side_variants(identity)
+                            .iter()
+                            .map(|v| v.bake_texture(body, TEXTURE_SIZE))
+                            .collect()
+                    } else {
+                        Vec::new()
+                    },
                     identity: identity.clone(),
                     vertices: vertices.iter().map(normalise).collect(),
                 })

@@ -5,6 +5,8 @@
 //! - The paper's Fig. 5 as numbers, on a face swap (the oracle is identity 0, the face crop is
 //!   identity 2's, so the face loss has something SDS does not already give): no face loss,
 //!   ×1, ×100, ×1 without the line-of-sight term (U6).
+//! - The face loss against a view-inconsistent oracle (`view_variants`: the prompted identity
+//!   with other skin and hair tones from its sides), with the face crop the identity's own.
 //! - The guidance forms (classic CFG, ANPG, HumanGaussian's rescaled form, plain SDS), the
 //!   body-prior init against a random box (§3.2), and the depth branch off (λ₂ = 0).
 //!
@@ -26,7 +28,9 @@ use std::time::Instant;
 const SWAP: &str = "data.face_identity=2";
 
 /// Every arm: its name and the overrides that make it.
-const ARMS: [(&str, &[&str]); 10] = [
+const VARIANTS: &str = "data.view_variants=true";
+
+const ARMS: [(&str, &[&str]); 12] = [
     ("full", &[]),
     ("anpg", &["sds.guidance=\"anpg\""]),
     ("human_gaussian", &["sds.guidance=\"human_gaussian\""]),
@@ -37,6 +41,8 @@ const ARMS: [(&str, &[&str]); 10] = [
     ("swap_face_x1", &[SWAP]),
     ("swap_face_x100", &[SWAP, "face.weight=100.0"]),
     ("swap_face_x1_no_los", &[SWAP, "face.line_of_sight=0.0"]),
+    ("variants_no_face", &[VARIANTS, "face.weight=0.0"]),
+    ("variants_face_x100", &[VARIANTS, "face.weight=100.0"]),
 ];
 
 #[derive(Debug, Parser)]

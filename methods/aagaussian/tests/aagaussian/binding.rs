@@ -239,3 +239,38 @@ fn a_reference_avatar_keeps_its_identity_when_animated() {
     assert!(scores.gap_db.abs() <= 1.5, "{scores:?}");
     assert!(scores.frame_psnr.iter().all(|p| p.is_finite()));
 }
+
+/// `view_variants`: the oracle shows the prompted identity as it is from the front and back,
+/// and with other tones from its left and right; the held-out targets stay the identity's own.
+#[test]
+fn view_variants_change_only_the_sides() {
+    use splatzoo_aagaussian::cameras::orbit_camera;
+    use splatzoo_aagaussian::data::PortraitConfig;
+    let config = PortraitConfig {
+        view_variants: true,
+        ..tiny_portrait(16)
+    };
+    let capture = PortraitCapture::build(&config, &Backend::Flex.device()).expect("a capture");
+    let bank = &capture.bank;
+    let label = config.prompt;
+    let colour = |az: f64, variant: bool| {
+        let camera = orbit_camera([0.0; 3], az, 0.0, 1.8, 50.0, 32);
+        let r = if variant {
+            bank.oracle_render(label, &camera)
+        } else {
+            bank.render(label, &camera)
+        };
+        r.color
+    };
+    assert_eq!(colour(0.0, true), colour(0.0, false));
+    assert_eq!(colour(180.0, true), colour(180.0, false));
+    assert_ne!(colour(90.0, true), colour(90.0, false));
+    assert_ne!(colour(-90.0, true), colour(-90.0, false));
+    assert_ne!(colour(90.0, true), colour(-90.0, true));
+    let other = 1 - label;
+    let camera = orbit_camera([0.0; 3], 90.0, 0.0, 1.8, 50.0, 32);
+    assert_eq!(
+        bank.oracle_render(other, &camera).color,
+        bank.render(other, &camera).color
+    );
+}
