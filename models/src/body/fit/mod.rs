@@ -23,62 +23,11 @@ use super::model::{BodyModel, BodyModelError};
 use super::priors::{SMPL_ANGLE_LIMITS_DEG, angle_limit_loss};
 use burn::tensor::{Device, Int, Tensor, TensorData};
 
-/// What a keypoint marks on the body.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum KeypointTarget {
-    Joint(usize),
-    Vertex(usize),
-}
+mod camera;
+mod keypoints;
 
-/// One 2-D keypoint: what it marks, where it is (pixels), how sure the detector was.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Observation {
-    pub target: KeypointTarget,
-    pub pixel: [f64; 2],
-    pub confidence: f64,
-}
-
-/// A calibrated pinhole camera: `x_cam = R x_world + t` (rows `[R | t]`), +z forward,
-/// `u = f_x x / z + c_x`, `v = f_y y / z + c_y` (image y down when the camera's y is down).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PinholeCamera {
-    pub fx: f64,
-    pub fy: f64,
-    pub cx: f64,
-    pub cy: f64,
-    pub world_to_camera: [[f64; 4]; 3],
-}
-
-impl PinholeCamera {
-    /// The pixel of a world point, `None` behind the camera.
-    pub fn project(&self, p: [f64; 3]) -> Option<[f64; 2]> {
-        let c = self.camera_point(p);
-        (c[2] > 1e-9).then(|| {
-            [
-                self.fx * c[0] / c[2] + self.cx,
-                self.fy * c[1] / c[2] + self.cy,
-            ]
-        })
-    }
-
-    fn camera_point(&self, p: [f64; 3]) -> [f64; 3] {
-        let m = &self.world_to_camera;
-        std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
-    }
-
-    /// The world point at pixel `(u, v)` and camera depth `z`.
-    fn unproject(&self, [u, v]: [f64; 2], z: f64) -> [f64; 3] {
-        let c = [(u - self.cx) * z / self.fx, (v - self.cy) * z / self.fy, z];
-        let m = &self.world_to_camera;
-        let d: [f64; 3] = std::array::from_fn(|r| c[r] - m[r][3]);
-        std::array::from_fn(|k| (0..3).map(|r| m[r][k] * d[r]).sum())
-    }
-
-    fn centre(&self) -> [f64; 3] {
-        let m = &self.world_to_camera;
-        std::array::from_fn(|k| -(0..3).map(|r| m[r][k] * m[r][3]).sum::<f64>())
-    }
-}
+pub use camera::PinholeCamera;
+pub use keypoints::{KeypointTarget, Observation, TORSO, body25_targets};
 
 /// The fit's knobs.
 #[derive(Debug, Clone, PartialEq)]
@@ -627,48 +576,3 @@ pub fn fit_sequence(
     }
     Ok(fits)
 }
-
-/// What each BODY_25 keypoint marks on an SMPL-layout body (joints 0–23; SMPL-X shares its
-/// first 22): body joints by index, and the face and feet points by the surface landmarks
-/// `landmark` names (`nose_tip`, `left_eye`, `right_ear`, `left_toe`, `left_heel`, …; `None`
-/// leaves a point unused, as the small toes always are).
-pub fn body25_targets(landmark: impl Fn(&str) -> Option<u32>) -> [Option<KeypointTarget>; 25] {
-    let joint = |j: usize| Some(KeypointTarget::Joint(j));
-    let vertex = |name: &str| landmark(name).map(|v| KeypointTarget::Vertex(v as usize));
-    [
-        vertex("nose_tip"),
-        joint(12),
-        joint(17),
-        joint(19),
-        joint(21),
-        joint(16),
-        joint(18),
-        joint(20),
-        joint(0),
-        joint(2),
-        joint(5),
-        joint(8),
-        joint(1),
-        joint(4),
-        joint(7),
-        vertex("right_eye"),
-        vertex("left_eye"),
-        vertex("right_ear"),
-        vertex("left_ear"),
-        vertex("left_toe"),
-        None,
-        vertex("left_heel"),
-        vertex("right_toe"),
-        None,
-        vertex("right_heel"),
-    ]
-}
-
-/// SMPLify's torso for the orientation stage: shoulders and hips (SMPL joints).
-pub const TORSO: [KeypointTarget; 5] = [
-    KeypointTarget::Joint(0),
-    KeypointTarget::Joint(1),
-    KeypointTarget::Joint(2),
-    KeypointTarget::Joint(16),
-    KeypointTarget::Joint(17),
-];
