@@ -33,6 +33,7 @@ use crate::prompts::PromptEmbeddings;
 use crate::schedule::NoiseSchedule;
 use crate::score::{Conditioning, LatentBatch, Prediction, ScoreModel};
 use serde::{Deserialize, Serialize};
+use splatzoo_train::onnx::tract_io_names;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -170,23 +171,8 @@ impl OnnxScore {
         let model = tract_onnx::onnx()
             .model_for_path(&graph)
             .map_err(|e| gerr(format!("cannot load ({e})")))?;
-        let input_names: Vec<String> = model
-            .input_outlets()
-            .map_err(|e| gerr(e.to_string()))?
-            .iter()
-            .map(|outlet| model.node(outlet.node).name.clone())
-            .collect();
-        let output_names: Vec<String> = model
-            .output_outlets()
-            .map_err(|e| gerr(e.to_string()))?
-            .iter()
-            .map(|&outlet| {
-                model
-                    .outlet_label(outlet)
-                    .map(str::to_owned)
-                    .unwrap_or_else(|| model.node(outlet.node).name.clone())
-            })
-            .collect();
+        let (input_names, output_names) =
+            tract_io_names(&model).map_err(|e| gerr(e.to_string()))?;
         let names = &config.inputs;
         let mut slots = Vec::with_capacity(input_names.len());
         for name in &input_names {

@@ -14,6 +14,7 @@ use splatzoo_datasets::synth::scene::posed_once;
 use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::fit::{
     FitConfig, KeypointTarget, Observation, PinholeCamera, TORSO, body25_targets, fit_body,
+    foot_targets,
 };
 use splatzoo_rasterizer::Camera;
 
@@ -105,11 +106,7 @@ pub fn fit_portrait(
             None => keypoints.push([0.0; 3]),
         }
     }
-    let feet: Vec<KeypointTarget> = ["left_heel", "right_heel", "left_toe", "right_toe"]
-        .iter()
-        .filter_map(|n| body.landmark(n))
-        .map(|v| KeypointTarget::Vertex(v as usize))
-        .collect();
+    let feet = foot_targets(|n| body.landmark(n));
     let ground = feet
         .iter()
         .map(|&f| point(f)[1])

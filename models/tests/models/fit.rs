@@ -9,6 +9,7 @@ use burn::tensor::{Tensor, TensorData};
 use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::fit::{
     FitConfig, KeypointTarget, Observation, PinholeCamera, TORSO, body25_targets, fit_body,
+    foot_targets,
 };
 use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
 
@@ -165,10 +166,8 @@ fn fit_case(seed: u64) -> (f64, f64, f64, f64) {
     let mut state = seed;
     let (betas, _, truth, camera, observations, _) = setup(&mut state);
     let body = builtin_body();
-    let feet: Vec<KeypointTarget> = ["left_heel", "right_heel", "left_toe", "right_toe"]
-        .iter()
-        .map(|n| KeypointTarget::Vertex(body.landmark(n).expect("a landmark") as usize))
-        .collect();
+    let feet = foot_targets(|n| body.landmark(n));
+    assert_eq!(feet.len(), 4, "the built-in body marks both heels and toes");
     let ground = feet
         .iter()
         .map(|&f| point(&truth, f)[1])

@@ -8,7 +8,7 @@
 
 mod names;
 
-pub use names::{graph_io_names, rename_graph_io, run_graph_named};
+pub use names::{graph_io_names, rename_graph_io, run_graph_named, tract_io_names};
 
 use crate::checkpoint::Checkpoint;
 use burn::module::Module;

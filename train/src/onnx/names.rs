@@ -158,6 +158,29 @@ fn rename_in_graph(graph: &mut GraphProto, renames: &HashMap<String, String>) {
     }
 }
 
+/// A loaded tract model's input and output names, in the order `SimplePlan::run` takes and
+/// gives values (see [`run_graph_named`]); read before `into_optimized`.
+pub fn tract_io_names(
+    model: &tract_onnx::prelude::InferenceModel,
+) -> tract_onnx::prelude::TractResult<(Vec<String>, Vec<String>)> {
+    let inputs = model
+        .input_outlets()?
+        .iter()
+        .map(|outlet| model.node(outlet.node).name.clone())
+        .collect();
+    let outputs = model
+        .output_outlets()?
+        .iter()
+        .map(|&outlet| {
+            model
+                .outlet_label(outlet)
+                .map(str::to_owned)
+                .unwrap_or_else(|| model.node(outlet.node).name.clone())
+        })
+        .collect();
+    Ok((inputs, outputs))
+}
+
 /// One named f32 tensor: name, shape, values.
 pub type Named = (String, Vec<usize>, Vec<f32>);
 
@@ -175,12 +198,7 @@ pub fn run_graph_named(
 ) -> Result<Vec<Named>, String> {
     let fail = |e: tract_onnx::prelude::TractError| format!("{}: {e}", path.display());
     let mut model = tract_onnx::onnx().model_for_path(path).map_err(fail)?;
-    let input_names: Vec<String> = model
-        .input_outlets()
-        .map_err(fail)?
-        .iter()
-        .map(|outlet| model.node(outlet.node).name.clone())
-        .collect();
+    let (input_names, output_names) = tract_io_names(&model).map_err(fail)?;
     if let Some((name, ..)) = inputs
         .iter()
         .find(|(name, ..)| !input_names.iter().any(|n| n == name))
@@ -205,17 +223,6 @@ pub fn run_graph_named(
                 .into_tvalue(),
         );
     }
-    let output_names: Vec<String> = model
-        .output_outlets()
-        .map_err(fail)?
-        .iter()
-        .map(|&outlet| {
-            model
-                .outlet_label(outlet)
-                .map(str::to_owned)
-                .unwrap_or_else(|| model.node(outlet.node).name.clone())
-        })
-        .collect();
     let plan = model
         .into_optimized()
         .map_err(fail)?

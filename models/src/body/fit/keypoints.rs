@@ -60,3 +60,13 @@ pub const TORSO: [KeypointTarget; 5] = [
     KeypointTarget::Joint(16),
     KeypointTarget::Joint(17),
 ];
+
+/// The heels and big toes (surface landmarks `landmark` names), the points a floor constraint
+/// ([`super::FitConfig::ground`]) holds; missing landmarks are left out.
+pub fn foot_targets(landmark: impl Fn(&str) -> Option<u32>) -> Vec<KeypointTarget> {
+    ["left_heel", "right_heel", "left_toe", "right_toe"]
+        .iter()
+        .filter_map(|n| landmark(n))
+        .map(|v| KeypointTarget::Vertex(v as usize))
+        .collect()
+}

@@ -27,7 +27,7 @@ mod camera;
 mod keypoints;
 
 pub use camera::PinholeCamera;
-pub use keypoints::{KeypointTarget, Observation, TORSO, body25_targets};
+pub use keypoints::{KeypointTarget, Observation, TORSO, body25_targets, foot_targets};
 
 /// The fit's knobs.
 #[derive(Debug, Clone, PartialEq)]
@@ -135,22 +135,23 @@ impl Objective<'_> {
             &self.body,
             &PoseInput::from_axis_angle(betas, pose_t, translation),
         );
-        let index = |ids: Vec<i64>| {
-            let n = ids.len();
-            Tensor::<1, Int>::from_data(TensorData::new(ids, [n]), &self.device)
-        };
         let [_, j, _] = posed.joints.dims();
         let [_, v, _] = posed.vertices.dims();
-        let joints = posed.joints.reshape([j, 3]);
-        let vertices = posed.vertices.reshape([v, 3]);
-        let rows: Vec<Tensor<2>> = targets
+        // One gather from `[joints ‖ vertices]` for every target.
+        let ids: Vec<i64> = targets
             .iter()
             .map(|t| match *t {
-                KeypointTarget::Joint(k) => joints.clone().select(0, index(vec![k as i64])),
-                KeypointTarget::Vertex(k) => vertices.clone().select(0, index(vec![k as i64])),
+                KeypointTarget::Joint(k) => k as i64,
+                KeypointTarget::Vertex(k) => (j + k) as i64,
             })
             .collect();
-        Tensor::cat(rows, 0)
+        let n = ids.len();
+        let ids = Tensor::<1, Int>::from_data(TensorData::new(ids, [n]), &self.device);
+        Tensor::cat(
+            vec![posed.joints.reshape([j, 3]), posed.vertices.reshape([v, 3])],
+            0,
+        )
+        .select(0, ids)
     }
 
     /// The pixel coordinates `[K, 2]` of world points `[K, 3]`.
