@@ -15,6 +15,9 @@
 //! - Static-scene 3D Gaussian splatting, the scene-prior stage the methods reuse
 //!   ([`static_scene`]; the `train-3dgs` and `render` binaries).
 //!
+//! - The speed/accuracy sweep over any `train-<method>` binary, with Pareto figures ([`sweep`];
+//!   the `sweep` binary).
+//!
 //! Errors: [`TrainError`].
 
 pub mod adam;
@@ -36,6 +39,7 @@ pub mod ply;
 pub mod run_dir;
 pub mod scene;
 pub mod static_scene;
+pub mod sweep;
 pub mod views;
 
 pub use error::TrainError;

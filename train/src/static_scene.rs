@@ -10,7 +10,9 @@ use crate::checkpoint::Checkpoint;
 use crate::densify::{DensifyConfig, Strategy};
 use crate::error::TrainError;
 use crate::gaussians::GaussianSet;
-use crate::harness::{EpochOrder, Evaluation, Method, MethodConfig, Say, ScoreSum, StepReport};
+use crate::harness::{
+    EpochOrder, Evaluation, Method, MethodConfig, Say, ScoreSum, StepReport, read_back,
+};
 use crate::images::{side_by_side, srgb_image, write_png};
 use crate::loss::{masked_l1, masked_psnr, masked_ssim, photometric, psnr, scalar, ssim};
 use crate::lpips::Lpips;
@@ -331,6 +333,17 @@ impl Method for StaticTrainer {
             }
         }
         Ok(Evaluation::new(self.step, sum.mean()).with("gaussians", self.graph.gaussians()))
+    }
+
+    fn render_held_out(&self) -> Result<usize, TrainError> {
+        for k in 0..self.views.test.len() {
+            read_back(&self.render_test(k)?.color);
+        }
+        Ok(self.views.test.len())
+    }
+
+    fn gaussians(&self) -> usize {
+        self.graph.gaussians()
     }
 
     fn checkpoint(&self) -> Checkpoint {

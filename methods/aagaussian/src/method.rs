@@ -8,7 +8,7 @@ use crate::data::PortraitCapture;
 use crate::error::AagError;
 use crate::onnx_score::OnnxScore;
 use crate::score::ScoreModel;
-use crate::trainer::{AVATAR, AagTrainer, mixture_oracle};
+use crate::trainer::{AVATAR, AagTrainer, mixture_oracle, render_views};
 use burn::module::Module;
 use burn::tensor::Device;
 use splatzoo_datasets::synth::rng::Rng;
@@ -16,7 +16,7 @@ use splatzoo_models::networks::vae::{VaeConfig, VaeEncoder};
 use splatzoo_models::networks::weights::WeightFile;
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
-use splatzoo_train::harness::{Evaluation, Method, Say, Scores, StepReport};
+use splatzoo_train::harness::{Evaluation, Method, Say, Scores, StepReport, read_back};
 use splatzoo_train::lpips::Lpips;
 use splatzoo_train::scene::SceneNode;
 use std::path::Path;
@@ -296,6 +296,22 @@ impl Method for Aag {
         )
         .with("scores", "held-out views of the prompted identity")
         .with("aag", serde_json::to_value(&scores).expect("plain data")))
+    }
+
+    /// The held-out cameras and the face camera.
+    fn render_held_out(&self) -> Result<usize, TrainError> {
+        let capture = &self.trainer.capture;
+        let mut cameras = capture.eval_cameras.clone();
+        cameras.push(capture.face_camera);
+        let renders = render_views(&self.trainer.node.set.splats(), &cameras)?;
+        for render in &renders {
+            read_back(&render.color);
+        }
+        Ok(renders.len())
+    }
+
+    fn gaussians(&self) -> usize {
+        self.trainer.node.gaussians()
     }
 
     fn checkpoint(&self) -> Checkpoint {

@@ -10,7 +10,7 @@ use burn::tensor::Device;
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::gaussians::GaussianSet;
-use splatzoo_train::harness::{EpochOrder, Evaluation, Method, Say, StepReport};
+use splatzoo_train::harness::{EpochOrder, Evaluation, Method, Say, StepReport, read_back};
 use splatzoo_train::images::{side_by_side, srgb_image, write_png};
 use splatzoo_train::lpips::Lpips;
 use splatzoo_train::module_adam::{ModuleAdam, NETWORK_ADAM};
@@ -159,6 +159,21 @@ impl Method for ApfTrainer {
             evaluation = evaluation.with("sigma", sigma_summary(self, &trace));
         }
         Ok(evaluation)
+    }
+
+    /// The composed scene (every node, residuals and accessories) at each held-out view.
+    fn render_held_out(&self) -> Result<usize, TrainError> {
+        let nets = self.nets.valid();
+        for &i in &self.capture.test {
+            let view = &self.capture.views[i];
+            let composed = self.compose_at(&nets, view.frame, &view.camera);
+            read_back(&self.render_splats(&composed.splats, view.camera)?.color);
+        }
+        Ok(self.capture.test.len())
+    }
+
+    fn gaussians(&self) -> usize {
+        self.scene.gaussians()
     }
 
     fn checkpoint(&self) -> Checkpoint {

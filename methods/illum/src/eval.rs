@@ -32,6 +32,7 @@ use burn::module::{Module, Param};
 use burn::tensor::{Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Splats};
+use splatzoo_train::harness::read_back;
 use splatzoo_train::host_f32;
 use splatzoo_train::loss::{psnr, scalar, ssim};
 use splatzoo_train::lpips::Lpips;
@@ -254,6 +255,37 @@ impl IllumTrainer {
             &self.autodiff,
         ));
         relit
+    }
+
+    /// The held-out frames [`Self::evaluate`] scores, rendered and read back, unscored; returns
+    /// how many.
+    pub fn render_held_out(&self) -> Result<usize, IllumError> {
+        let (volume, decoder, materials) = self.frozen();
+        let nets = Nets {
+            volume: &volume,
+            decoder: &decoder,
+            materials: &materials,
+        };
+        let tests: Vec<&IllumFrame> = self
+            .capture
+            .test_frames()
+            .step_by(self.config.eval_stride)
+            .collect();
+        for frame in &tests {
+            let pose = self.frame_pose(frame.frame, true);
+            read_back(&self.render_view(nets, &frame.camera, &pose, true)?.colour);
+        }
+        Ok(tests.len())
+    }
+
+    /// Scene Gaussians plus the human's (its freed Gaussians in stage 2, one per mesh face in
+    /// stage 1).
+    pub fn gaussians(&self) -> usize {
+        let human = match &self.stage2 {
+            Some(stage2) => stage2.human.gaussians(),
+            None => self.mesh.model.face_count(),
+        };
+        self.scene.gaussians() + human
     }
 
     /// Every score of the module docs; `lpips` when the user gave its weights.

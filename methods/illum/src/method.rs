@@ -294,6 +294,14 @@ impl Method for Illum {
         .with("illum", serde_json::to_value(&scores).expect("plain data")))
     }
 
+    fn render_held_out(&self) -> Result<usize, TrainError> {
+        Ok(self.trainer.render_held_out()?)
+    }
+
+    fn gaussians(&self) -> usize {
+        self.trainer.gaussians()
+    }
+
     fn checkpoint(&self) -> Checkpoint {
         let t = &self.trainer;
         let mut c = Checkpoint::default();

@@ -27,7 +27,7 @@ use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::config;
 use splatzoo_train::harness::{
-    Evaluation, Method, Say, ScoreSum, Scores, StepReport, checkpoint_config,
+    Evaluation, Method, Say, ScoreSum, Scores, StepReport, checkpoint_config, read_back,
 };
 use splatzoo_train::images::{side_by_side, srgb_image, write_png};
 use splatzoo_train::loss::{psnr, scalar, ssim};
@@ -373,6 +373,29 @@ impl Method for NlfTrainer {
             "at_input_views",
             serde_json::to_value(scores[1]).expect("plain data"),
         ))
+    }
+
+    /// Inference: each held-out identity's avatar decoded from its three input views, rendered
+    /// at every novel view.
+    fn render_held_out(&self) -> Result<usize, TrainError> {
+        let model = self.model();
+        let mut frames = 0;
+        for subject in &self.test {
+            let graph = SceneGraph::new().with(GeneratedAvatar::new(posed_splats(
+                self.avatar(&model, subject),
+            )));
+            let background = subject.background_tensor();
+            for view in &subject.targets {
+                read_back(&render_view(&graph, view, background.clone())?.color);
+                frames += 1;
+            }
+        }
+        Ok(frames)
+    }
+
+    /// The Gaussians of one decoded avatar (one per anchor).
+    fn gaussians(&self) -> usize {
+        self.anchors.face_from_gaussian.len()
     }
 
     /// The network by parameter path, the Adam moments (`optimizer.<path>.exp_avg[_sq]`) and

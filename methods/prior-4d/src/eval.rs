@@ -19,6 +19,7 @@ use burn::tensor::Tensor;
 use serde::{Deserialize, Serialize};
 use splatzoo_models::body::builtin_body;
 use splatzoo_train::avatar::{mpjpe_mm, track_joints};
+use splatzoo_train::harness::read_back;
 use splatzoo_train::host_f32;
 use splatzoo_train::loss::{psnr, scalar, ssim};
 use splatzoo_train::lpips::Lpips;
@@ -89,6 +90,22 @@ impl JointStage {
             &eval.camera,
             capture.scene_background,
         )
+    }
+
+    /// Renders the evaluation frames [`Self::evaluate`] scores (read back, unscored); returns
+    /// how many.
+    pub fn render_held_out(
+        &self,
+        capture: &Prior4dCapture,
+        refine: bool,
+        stride: usize,
+    ) -> Result<usize, Prior4dError> {
+        let scene = self.scene_splats(capture);
+        let frames: Vec<usize> = (0..capture.eval.len()).step_by(stride.max(1)).collect();
+        for &t in &frames {
+            read_back(&self.render_eval(capture, &scene, t, refine)?.color);
+        }
+        Ok(frames.len())
     }
 
     /// Scores now; `sigma_star` is the true global scale for this avatar's body.

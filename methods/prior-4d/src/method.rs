@@ -408,6 +408,31 @@ impl Method for Prior4d {
         Ok(evaluation)
     }
 
+    /// Stage D's evaluation frames, or before it the scene scan's held-out views.
+    fn render_held_out(&self) -> Result<usize, TrainError> {
+        Ok(match &self.joint {
+            Some(joint) => joint.render_held_out(
+                &self.capture,
+                self.config.joint.camera_refinement,
+                self.config.joint.eval_stride,
+            )?,
+            None => {
+                let degree = SceneStage::sh_degree(
+                    &self.config.scene,
+                    self.step.min(self.config.scene.steps),
+                );
+                self.scene.render_held_out(&self.capture, degree)?
+            }
+        })
+    }
+
+    fn gaussians(&self) -> usize {
+        match &self.joint {
+            Some(joint) => joint.scene.gaussians() + joint.avatar.gaussians(),
+            None => self.scene.node.gaussians() + self.avatar.node.gaussians(),
+        }
+    }
+
     fn checkpoint(&self) -> Checkpoint {
         let mut c = Checkpoint::default();
         self.scene.node.save(&mut c, SCENE);

@@ -12,7 +12,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render, rasterize};
 use splatzoo_train::gaussians::GaussianSet;
-use splatzoo_train::harness::EpochOrder;
+use splatzoo_train::harness::{EpochOrder, read_back};
 use splatzoo_train::loss::{photometric, psnr, scalar, ssim};
 use splatzoo_train::scene::{FrameContext, FrameQuery, GaussianNode, SceneNode, StepEnd};
 
@@ -210,6 +210,22 @@ impl SceneStage {
     }
 
     /// PSNR and SSIM over the held-out scan views at SH `degree`.
+    /// Renders the held-out scan views (read back, unscored); returns how many.
+    pub fn render_held_out(
+        &self,
+        capture: &Prior4dCapture,
+        degree: u32,
+    ) -> Result<usize, Prior4dError> {
+        for &k in &self.test {
+            read_back(
+                &self
+                    .render(capture.scene_scan[k].camera, degree, false)?
+                    .color,
+            );
+        }
+        Ok(self.test.len())
+    }
+
     pub fn evaluate(
         &self,
         capture: &Prior4dCapture,

@@ -5,14 +5,9 @@
 use splatzoo_train::backend::Backend;
 use std::process::Command;
 
-/// Peak resident memory of this process, MiB.
+/// Peak resident memory of this process, MiB (NaN where the system does not say).
 pub fn peak_rss_mib() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1024.0)
+    splatzoo_train::harness::peak_memory_bytes().map_or(f64::NAN, |b| b as f64 / (1024.0 * 1024.0))
 }
 
 /// The bench's `main`: in a child (`--child <backend> <steps>`) prints what `child` measured;

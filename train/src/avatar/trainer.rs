@@ -11,7 +11,9 @@ use super::scenery::{SCENERY, build_node, decide};
 use crate::checkpoint::Checkpoint;
 use crate::error::TrainError;
 use crate::gaussians::{GaussianSet, SH_C0};
-use crate::harness::{EpochOrder, Evaluation, Method, MethodConfig, Say, Scores, StepReport};
+use crate::harness::{
+    EpochOrder, Evaluation, Method, MethodConfig, Say, Scores, StepReport, read_back,
+};
 use crate::host_f32;
 use crate::images::{side_by_side, srgb_image, write_png};
 use crate::loss::{photometric, psnr, scalar, silhouette};
@@ -480,6 +482,29 @@ impl Method for AvatarTrainer {
                 .with("prior_mpjpe_mm", mpjpe_mm(prior, truth));
         }
         Ok(evaluation)
+    }
+
+    /// The human over its background at every novel view and pose (with the background node
+    /// where there is one).
+    fn render_held_out(&self) -> Result<usize, TrainError> {
+        let views = self
+            .capture
+            .novel_view
+            .iter()
+            .chain(&self.capture.novel_pose);
+        let mut frames = 0;
+        for view in views {
+            match self.render_scene(view)? {
+                Some(render) => read_back(&render.color),
+                None => read_back(&self.render_view(view)?.color),
+            }
+            frames += 1;
+        }
+        Ok(frames)
+    }
+
+    fn gaussians(&self) -> usize {
+        self.node.gaussians() + self.scenery.as_ref().map_or(0, |s| s.gaussians())
     }
 
     fn checkpoint(&self) -> Checkpoint {

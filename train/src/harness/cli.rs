@@ -3,7 +3,8 @@
 //! method's shorthands), `--print-config`, the run directory `runs/<method>/<name>/` with
 //! `config.toml` and `log.txt`, a progress bar, evaluations on the schedule (`metrics.json`
 //! rewritten atomically after each, its history kept across resumes), checkpoints on the
-//! schedule and on Ctrl-C (exit code 130), and at the end the method's exports and a summary.
+//! schedule and on Ctrl-C (exit code 130), and at the end the method's exports and a summary
+//! (wall and loop time, steps/s, render FPS of the held-out frames, Gaussians, peak memory).
 
 use super::{History, StepReport};
 use super::{Method, MethodConfig, Say, check_format, checkpoint_config, full_checkpoint};
@@ -255,7 +256,16 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
     let steps_run = method.steps() - first_step;
     let rate = steps_run as f64 / loop_start.elapsed().as_secs_f64().max(1e-9);
     let run_path = out.run.path.clone();
+    let loop_seconds = loop_start.elapsed().as_secs_f64();
     let extra = method.finish(&run_path, &mut out)?;
+    // Render speed: a warm-up pass, then a timed one.
+    method.render_held_out()?;
+    let render_start = Instant::now();
+    let frames = method.render_held_out()?;
+    let render_fps = frames as f64 / render_start.elapsed().as_secs_f64().max(1e-9);
+    out.say(&format!(
+        "rendering: {render_fps:.2} FPS over {frames} held-out frames"
+    ));
     let seconds = start.elapsed().as_secs_f64();
     let mut metrics = serde_json::to_value(&history).expect("plain data");
     let summary = metrics.as_object_mut().expect("a JSON object");
@@ -265,6 +275,14 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
     );
     summary.insert("seconds".into(), seconds.into());
     summary.insert("steps_per_second".into(), rate.into());
+    summary.insert("loop_seconds".into(), loop_seconds.into());
+    summary.insert("render_fps".into(), render_fps.into());
+    summary.insert("render_frames".into(), frames.into());
+    summary.insert("gaussians".into(), method.gaussians().into());
+    summary.insert(
+        "peak_memory_bytes".into(),
+        super::peak_memory_bytes().into(),
+    );
     summary.insert("backend".into(), config.backend().name().into());
     summary.insert("decisions".into(), method.decisions().into());
     summary.extend(extra);

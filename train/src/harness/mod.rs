@@ -123,6 +123,13 @@ pub trait Method: Sized {
     fn step(&mut self) -> Result<StepReport, TrainError>;
     /// Held-out scores now.
     fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError>;
+    /// Renders what [`Self::evaluate`] renders, once, without scoring it, each frame read back
+    /// to the host (see [`read_back`]); returns how many frames. The harness times a second
+    /// pass after training for `metrics.json`'s `render_fps` (inference: for a feed-forward
+    /// method that includes decoding the avatar).
+    fn render_held_out(&self) -> Result<usize, TrainError>;
+    /// Gaussians in the whole scene now (`metrics.json`'s `gaussians`).
+    fn gaussians(&self) -> usize;
     /// The method's whole state (the harness adds the format tag, the configuration, the step
     /// and the metrics history).
     fn checkpoint(&self) -> Checkpoint;
@@ -133,6 +140,27 @@ pub trait Method: Sized {
         run: &Path,
         say: &mut dyn Say,
     ) -> Result<serde_json::Map<String, serde_json::Value>, TrainError>;
+}
+
+/// Waits for `image` and copies it to the host, so a timed render includes all of its work on
+/// lazy or asynchronous backends (wgpu, fusion).
+pub fn read_back<const D: usize>(image: &burn::tensor::Tensor<D>) {
+    drop(crate::host_f32(image));
+}
+
+/// This process's peak resident memory in bytes (Linux's `VmHWM`; on lavapipe it includes the
+/// "GPU" buffers); `None` where the system does not say.
+pub fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kib = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))?
+        .trim()
+        .strip_suffix("kB")?
+        .trim()
+        .parse::<u64>()
+        .ok()?;
+    Some(kib * 1024)
 }
 
 /// Refuses a checkpoint whose format tag is not `format` (every reader calls this first).

@@ -1,6 +1,6 @@
 //! The training engine's integration tests, one binary: the train-3dgs and render commands,
 //! losses, metrics, Adam and .ply files, training on every backend, and the skinned-Gaussian
-//! node.
+//! node, and the sweep.
 
 mod avatar;
 mod capture_pieces;
@@ -9,4 +9,5 @@ mod commands;
 mod kl_density;
 mod losses_and_ply;
 mod skinned;
+mod sweep;
 mod training;
