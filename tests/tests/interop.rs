@@ -52,8 +52,17 @@ fn text(o: &Output) -> String {
     )
 }
 
+/// The harness history of a finished run's `metrics.json`, after checking the run summary the
+/// sweep reads (loop time, render FPS over a positive frame count, Gaussians, peak memory).
 fn history(path: &Path) -> History {
     let text = std::fs::read_to_string(path).expect("metrics.json");
+    let summary: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    for key in ["loop_seconds", "render_fps", "peak_memory_bytes"] {
+        let v = summary[key].as_f64().unwrap_or(f64::NAN);
+        assert!(v.is_finite() && v > 0.0, "{}: {key} = {v}", path.display());
+    }
+    assert!(summary["render_frames"].as_u64().unwrap_or(0) > 0);
+    assert!(summary["gaussians"].as_u64().unwrap_or(0) > 0);
     serde_json::from_str(&text).expect("metrics.json is a harness history")
 }
 
@@ -626,4 +635,35 @@ fn train_illum_outputs_read_back_resume_across_processes_and_relight() {
 
 fn strs(v: &[String]) -> Vec<&str> {
     v.iter().map(String::as_str).collect()
+}
+
+/// Every sweep file the project ships names a trainer that exists and knobs it accepts: the
+/// sweep's dry run asks the trainer for each point's effective configuration.
+#[test]
+fn every_shipped_sweep_file_names_knobs_its_trainer_accepts() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(root.join("methods"))
+        .unwrap()
+        .map(|m| m.unwrap().path().join("configs/sweep.toml"))
+        .filter(|f| f.exists())
+        .collect();
+    files.extend(
+        ["sweep-3dgs.toml", "sweep-avatar.toml"].map(|f| root.join("train/configs").join(f)),
+    );
+    assert!(files.len() >= 7, "{files:?}");
+    let dir = tempfile::tempdir().unwrap();
+    for file in files {
+        let out = run(
+            dir.path(),
+            "sweep",
+            &["--grid", file.to_str().unwrap(), "--dry-run"],
+        );
+        assert!(out.status.success(), "{}: {}", file.display(), text(&out));
+        let points = String::from_utf8_lossy(&out.stdout).lines().count();
+        assert!(
+            points >= 1 + 2 * 3 - 1,
+            "{}: {points} points",
+            file.display()
+        );
+    }
 }
