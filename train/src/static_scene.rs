@@ -11,7 +11,8 @@ use crate::densify::{DensifyConfig, Strategy};
 use crate::error::TrainError;
 use crate::gaussians::GaussianSet;
 use crate::harness::{
-    EpochOrder, Evaluation, Method, MethodConfig, Say, ScoreSum, StepReport, read_back,
+    EpochOrder, Evaluation, Method, MethodConfig, ModuleChoice, Say, ScoreSum, StepReport,
+    read_back,
 };
 use crate::images::{side_by_side, srgb_image, write_png};
 use crate::loss::{masked_l1, masked_psnr, masked_ssim, photometric, psnr, scalar, ssim};
@@ -36,6 +37,10 @@ pub struct StaticConfig {
     /// Highest SH degree, reached one degree per `sh_degree_every` steps.
     pub sh_degree: u32,
     pub sh_degree_every: usize,
+    /// View-dependent colour (SH degree ≥ 1). Absent: the degree is limited to what the
+    /// training views support (see [`supported_sh_degree`]); `true`: `sh_degree` whatever the
+    /// views; `false`: degree 0.
+    pub view_dependence: Option<bool>,
     /// Held-out evaluation every this many steps (and at the end).
     pub eval_every: usize,
     /// Checkpoint every this many steps (0: only at the end and on Ctrl-C).
@@ -57,6 +62,7 @@ impl Default for StaticConfig {
             lambda_dssim: 0.2,
             sh_degree: 3,
             sh_degree_every: 500,
+            view_dependence: None,
             eval_every: 1000,
             checkpoint_every: 1000,
             seed: 0,
@@ -101,6 +107,47 @@ pub struct StaticArgs {
 /// The name of the one node (its checkpoint prefix).
 pub const BACKGROUND: &str = "background";
 
+/// The highest SH degree `views` training views support: degree `d` has `(d + 1)²`
+/// coefficients per colour channel, and a Gaussian's view-dependent colour is fitted from at
+/// most one direction per view, so `d` needs `(d + 1)² ≤ views` (3 views: 0; 4–8: 1; 9–15: 2;
+/// 16 or more: 3).
+pub fn supported_sh_degree(views: usize) -> u32 {
+    let mut degree = 0u32;
+    while degree < 3 && ((degree + 2) as usize).pow(2) <= views {
+        degree += 1;
+    }
+    degree
+}
+
+/// Whether the scene gets view-dependent colour and up to which SH degree.
+fn view_dependence(config: &StaticConfig, views: usize) -> (ModuleChoice, u32) {
+    let supported = supported_sh_degree(views);
+    let wanted = config.sh_degree;
+    let why = if wanted == 0 {
+        "sh_degree = 0".to_owned()
+    } else if supported >= wanted {
+        format!("{views} training views support SH degree {wanted}")
+    } else {
+        format!(
+            "{views} training views support SH degree {supported} of {wanted} ((d + 1)² \
+             coefficients a channel need as many views)"
+        )
+    };
+    let choice = ModuleChoice::decide(
+        "view-dependent colour (SH)",
+        "view_dependence",
+        config.view_dependence,
+        wanted.min(supported) > 0,
+        why,
+    );
+    let degree = match config.view_dependence {
+        Some(true) => wanted,
+        Some(false) => 0,
+        None => wanted.min(supported),
+    };
+    (choice, degree)
+}
+
 pub struct StaticTrainer {
     pub config: StaticConfig,
     pub views: ViewSet,
@@ -111,13 +158,16 @@ pub struct StaticTrainer {
     /// Orders the training views.
     order: EpochOrder,
     background: Tensor<1>,
+    /// The highest SH degree trained (the configuration's, limited by the views' support).
+    max_sh_degree: u32,
+    view_dependence: ModuleChoice,
 }
 
 impl StaticTrainer {
     /// The SH degree trained at the current step.
     pub fn sh_degree(&self) -> u32 {
         let every = self.config.sh_degree_every.max(1);
-        ((self.step / every) as u32).min(self.config.sh_degree)
+        ((self.step / every) as u32).min(self.max_sh_degree)
     }
 
     /// The scene's Gaussians now (what `point_cloud.ply` holds).
@@ -197,6 +247,7 @@ impl StaticTrainer {
             config.seed ^ 0x3D65_0001,
         );
         let background = Tensor::<1>::from_floats(views.background.as_slice(), device);
+        let (view_dependence, max_sh_degree) = view_dependence(&config, views.train.len());
         Ok(Self {
             order: EpochOrder::new(config.seed ^ 0x3D65_0000),
             config,
@@ -204,6 +255,8 @@ impl StaticTrainer {
             graph: SceneGraph::new().with(node),
             step: 0,
             background,
+            max_sh_degree,
+            view_dependence,
         })
     }
 }
@@ -268,6 +321,10 @@ impl Method for StaticTrainer {
 
     fn decisions(&self) -> Vec<String> {
         self.views.decisions.clone()
+    }
+
+    fn modules(&self) -> Vec<ModuleChoice> {
+        vec![self.view_dependence.clone()]
     }
 
     /// One optimiser step on the next training view, then density control where scheduled.

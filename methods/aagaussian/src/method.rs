@@ -16,7 +16,9 @@ use splatzoo_models::networks::vae::{VaeConfig, VaeEncoder};
 use splatzoo_models::networks::weights::WeightFile;
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
-use splatzoo_train::harness::{Evaluation, Method, Say, Scores, StepReport, read_back};
+use splatzoo_train::harness::{
+    Evaluation, Method, ModuleChoice, Say, Scores, StepReport, read_back,
+};
 use splatzoo_train::lpips::Lpips;
 use splatzoo_train::scene::SceneNode;
 use std::path::Path;
@@ -246,6 +248,34 @@ impl Method for Aag {
 
     fn decisions(&self) -> Vec<String> {
         self.decisions.clone()
+    }
+
+    /// The latent encoder where the guidance model denoises latents, the facial loss and the
+    /// depth branch by their weights.
+    fn modules(&self) -> Vec<ModuleChoice> {
+        let c = &self.trainer.config;
+        vec![
+            ModuleChoice {
+                module: "latent encoder (VAE)".into(),
+                enabled: c.vae.is_some(),
+                reason: if c.vae.is_some() {
+                    "the guidance model denoises latents (`vae` given)".into()
+                } else {
+                    "the guidance model denoises pixels (no `vae`)".into()
+                },
+                forced_by: Some("vae".into()),
+            },
+            ModuleChoice::configured(
+                "facial rendering loss (Eq. 6)",
+                "face.weight > 0",
+                c.face.weight > 0.0,
+            ),
+            ModuleChoice::configured(
+                "depth branch of SDS (Eq. 5)",
+                "sds.lambda_depth > 0",
+                c.sds.lambda_depth > 0.0,
+            ),
+        ]
     }
 
     fn step(&mut self) -> Result<StepReport, TrainError> {

@@ -37,6 +37,8 @@ pub struct DecoupleConfig {
     /// `accessory_views` of the views showing the person.
     pub accessory_area: f64,
     pub accessory_views: f64,
+    /// Forces every tracked person's accessory node on or off; absent, the rule above decides.
+    pub accessories: Option<bool>,
 }
 
 impl Default for DecoupleConfig {
@@ -50,6 +52,7 @@ impl Default for DecoupleConfig {
             min_component: 0.005,
             accessory_area: 0.03,
             accessory_views: 0.3,
+            accessories: None,
         }
     }
 }

@@ -10,7 +10,9 @@ use burn::tensor::Device;
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::gaussians::GaussianSet;
-use splatzoo_train::harness::{EpochOrder, Evaluation, Method, Say, StepReport, read_back};
+use splatzoo_train::harness::{
+    EpochOrder, Evaluation, Method, ModuleChoice, Say, StepReport, read_back,
+};
 use splatzoo_train::images::{side_by_side, srgb_image, write_png};
 use splatzoo_train::lpips::Lpips;
 use splatzoo_train::module_adam::{ModuleAdam, NETWORK_ADAM};
@@ -124,6 +126,22 @@ impl Method for ApfTrainer {
         let mut d = self.capture.decisions.clone();
         d.extend(self.scene.decisions.iter().cloned());
         d
+    }
+
+    /// Decoupling and the residual field by configuration (Table II's arms); an accessory node
+    /// per tracked person by the mask rule (forced by `decouple.accessories`).
+    fn modules(&self) -> Vec<ModuleChoice> {
+        let c = &self.config;
+        let mut modules = vec![
+            ModuleChoice::configured("decoupling (Eq. 3)", "decouple.enabled", c.decouple.enabled),
+            ModuleChoice::configured(
+                "residual field and gate (Eq. 4–5)",
+                "residual.enabled",
+                c.residual.enabled,
+            ),
+        ];
+        modules.extend(self.scene.modules.iter().cloned());
+        modules
     }
 
     fn step(&mut self) -> Result<StepReport, TrainError> {

@@ -19,6 +19,7 @@ use splatzoo_models::body::priors::bone_lengths;
 use splatzoo_models::networks::encoding::frequency_encoding;
 use splatzoo_rasterizer::{Camera, Splats};
 use splatzoo_train::gaussians::GaussianSet;
+use splatzoo_train::harness::ModuleChoice;
 use splatzoo_train::scene::skinned::ResidualInput;
 use splatzoo_train::scene::{
     FrameContext, FrameQuery, GaussianNode, NodeOutput, SceneNode, SkinnedGaussianNode,
@@ -57,6 +58,8 @@ pub struct ApfScene {
     pub humans: Vec<Human>,
     pub accessories: Vec<Accessory>,
     pub decisions: Vec<String>,
+    /// The accessory node of each tracked person, built or not, and why.
+    pub modules: Vec<ModuleChoice>,
 }
 
 /// What a frame's composition switched on.
@@ -88,6 +91,7 @@ impl ApfScene {
         device: &Device,
     ) -> Result<Self, ApfError> {
         let mut decisions = Vec::new();
+        let mut modules = Vec::new();
         let mut humans = Vec::new();
         let mut human = config.human.clone();
         human.smoothness_weight = config.loss.pose;
@@ -126,18 +130,31 @@ impl ApfScene {
                 .map(|&i| &capture.views[i].people[h])
                 .collect();
             let (wanted, why) = wants_accessory(&config.decouple, &masks);
-            if !wanted {
-                decisions.push(format!("{}: no accessory node ({why})", person.name));
+            let module = format!("accessory node of {}", person.name);
+            let choice = ModuleChoice::decide(
+                module.clone(),
+                "decouple.accessories",
+                config.decouple.accessories,
+                wanted,
+                why.clone(),
+            );
+            if !choice.enabled {
+                modules.push(choice);
                 continue;
             }
             let returns = accessory_returns(capture, h);
             let Some((joint, spreads)) = select_parent(person, &returns) else {
-                decisions.push(format!(
-                    "{}: no accessory node (accessory mask seen but too few LiDAR returns on it)",
-                    person.name
-                ));
+                modules.push(ModuleChoice {
+                    enabled: false,
+                    reason: format!(
+                        "{}; but too few LiDAR returns on its mask to place it",
+                        choice.reason
+                    ),
+                    ..choice
+                });
                 continue;
             };
+            modules.push(choice);
             let points = initial_points(
                 person,
                 &returns,
@@ -212,6 +229,7 @@ impl ApfScene {
             humans,
             accessories,
             decisions,
+            modules,
         })
     }
 

@@ -12,7 +12,9 @@ use burn::tensor::{Device, Int, Tensor};
 use splatzoo_train::TrainError;
 use splatzoo_train::adam::AdamState;
 use splatzoo_train::checkpoint::{Checkpoint, CheckpointError};
-use splatzoo_train::harness::{EpochOrder, Evaluation, Method, Say, Scores, StepReport};
+use splatzoo_train::harness::{
+    EpochOrder, Evaluation, Method, ModuleChoice, Say, Scores, StepReport,
+};
 use splatzoo_train::lpips::Lpips;
 use splatzoo_train::module_adam::{ModuleAdam, NETWORK_ADAM};
 use splatzoo_train::scene::SceneNode;
@@ -292,6 +294,20 @@ impl Method for Illum {
         )
         .with("scores", "held-out frames, full image")
         .with("illum", serde_json::to_value(&scores).expect("plain data")))
+    }
+
+    /// Each of the paper's modules by its switch (the ablations); no data rule decides them yet.
+    fn modules(&self) -> Vec<ModuleChoice> {
+        let a = &self.trainer.config.ablation;
+        vec![
+            ModuleChoice::configured(
+                "light volume and PBR shading (Eq. 4–7)",
+                "ablation.light_volume",
+                a.light_volume,
+            ),
+            ModuleChoice::configured("shadow decoder F_ao (Eq. 8–9)", "ablation.shadow", a.shadow),
+            ModuleChoice::configured("stage 1 (refined body)", "ablation.two_stage", a.two_stage),
+        ]
     }
 
     fn render_held_out(&self) -> Result<usize, TrainError> {

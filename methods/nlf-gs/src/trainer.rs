@@ -27,7 +27,8 @@ use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::config;
 use splatzoo_train::harness::{
-    Evaluation, Method, Say, ScoreSum, Scores, StepReport, checkpoint_config, read_back,
+    Evaluation, Method, ModuleChoice, Say, ScoreSum, Scores, StepReport, checkpoint_config,
+    read_back,
 };
 use splatzoo_train::images::{side_by_side, srgb_image, write_png};
 use splatzoo_train::loss::{psnr, scalar, ssim};
@@ -252,6 +253,16 @@ impl Method for NlfTrainer {
 
     fn steps(&self) -> usize {
         self.step
+    }
+
+    /// The avatar has no optional scene module (a person over a plain background, decoded
+    /// from three views); the encoder's image-colour branch is the one switch.
+    fn modules(&self) -> Vec<ModuleChoice> {
+        vec![ModuleChoice::configured(
+            "image-colour branch of the decoder input",
+            "network.image_colour",
+            self.config.network.image_colour,
+        )]
     }
 
     fn describe(&self) -> String {

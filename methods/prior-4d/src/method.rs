@@ -17,7 +17,9 @@ use burn::tensor::Device;
 use splatzoo_models::body::BodyModel;
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
-use splatzoo_train::harness::{EpochOrder, Evaluation, Method, Say, Scores, StepReport};
+use splatzoo_train::harness::{
+    EpochOrder, Evaluation, Method, ModuleChoice, Say, Scores, StepReport,
+};
 use splatzoo_train::host_f32;
 use splatzoo_train::lpips::Lpips;
 use splatzoo_train::module_adam::{ModuleAdam, NETWORK_ADAM};
@@ -406,6 +408,25 @@ impl Method for Prior4d {
                 evaluation.with("priors_only", serde_json::to_value(p).expect("plain data"));
         }
         Ok(evaluation)
+    }
+
+    /// Stage D's optional parts by their switches (the ablations); no data rule decides them yet.
+    fn modules(&self) -> Vec<ModuleChoice> {
+        let j = &self.config.joint;
+        vec![
+            ModuleChoice::configured(
+                "pose-dependent offsets",
+                "joint.pose_offsets",
+                j.pose_offsets,
+            ),
+            ModuleChoice::configured(
+                "acting-camera refinement",
+                "joint.camera_refinement",
+                j.camera_refinement,
+            ),
+            ModuleChoice::configured("normal term (Eq. 6)", "joint.normal > 0", j.normal > 0.0),
+            ModuleChoice::configured("contact term (Eq. 7)", "joint.contact > 0", j.contact > 0.0),
+        ]
     }
 
     /// Stage D's evaluation frames, or before it the scene scan's held-out views.

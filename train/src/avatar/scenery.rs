@@ -14,6 +14,7 @@ use super::AvatarConfig;
 use super::data::AvatarCapture;
 use crate::error::TrainError;
 use crate::gaussians::GaussianSet;
+use crate::harness::ModuleChoice;
 use crate::scene::GaussianNode;
 use crate::views::camera_extent;
 use burn::tensor::Device;
@@ -21,28 +22,25 @@ use burn::tensor::Device;
 /// The background node's name (its checkpoint prefix).
 pub const SCENERY: &str = "background";
 
-/// Whether the capture gets a background node, and why.
-pub fn decide(config: &AvatarConfig, capture: &AvatarCapture) -> (bool, String) {
-    let source = capture.scenery_source;
-    match (config.scenery, source) {
-        (Some(true), Some(from)) => (
+/// Whether the capture gets a background node, and why: where the capture has sparse points of
+/// its surroundings (a studio capture with masked-out backgrounds has none); `scenery` forces it
+/// either way (forced on without points, it starts from random points).
+pub fn decide(config: &AvatarConfig, capture: &AvatarCapture) -> ModuleChoice {
+    let (needed, why) = match capture.scenery_source {
+        Some(from) if from.contains("sparse") => (
             true,
-            format!("background node forced on (scenery = true), from {from}"),
+            format!("the capture has sparse points of its surroundings ({from})"),
         ),
-        (Some(true), None) => (
-            true,
-            "background node forced on (scenery = true), from random points".into(),
-        ),
-        (Some(false), _) => (false, "no background node (scenery = false)".into()),
-        (None, Some(from)) if from.contains("sparse") => (
-            true,
-            "background node: the capture has sparse points of its surroundings".into(),
-        ),
-        (None, _) => (
+        Some(from) => (
             false,
-            "no background node: the capture has no sparse points of its surroundings (set scenery = true to force one)".into(),
+            format!("the capture has no sparse points of its surroundings (only {from})"),
         ),
-    }
+        None => (
+            false,
+            "the capture has no points of its surroundings".to_owned(),
+        ),
+    };
+    ModuleChoice::decide("background node", "scenery", config.scenery, needed, why)
 }
 
 /// The background node over the capture's scenery points (random points in the cameras' box

@@ -12,7 +12,7 @@ use crate::checkpoint::Checkpoint;
 use crate::error::TrainError;
 use crate::gaussians::{GaussianSet, SH_C0};
 use crate::harness::{
-    EpochOrder, Evaluation, Method, MethodConfig, Say, Scores, StepReport, read_back,
+    EpochOrder, Evaluation, Method, MethodConfig, ModuleChoice, Say, Scores, StepReport, read_back,
 };
 use crate::host_f32;
 use crate::images::{side_by_side, srgb_image, write_png};
@@ -60,6 +60,8 @@ pub struct AvatarTrainer {
     pub node: SkinnedGaussianNode,
     /// The static background node, where the capture gets one ([`super::scenery`]).
     pub scenery: Option<GaussianNode>,
+    /// Why it has one or not.
+    pub scenery_choice: ModuleChoice,
     model: BodyModel,
     pub step: usize,
     /// Orders the training frames.
@@ -249,10 +251,8 @@ impl AvatarTrainer {
             config.seed ^ 0xA7A7_0001,
             device,
         )?;
-        let (with_scenery, why) = decide(&config, &capture);
-        let mut capture = capture;
-        capture.decisions.push(why);
-        let scenery = if with_scenery {
+        let scenery_choice = decide(&config, &capture);
+        let scenery = if scenery_choice.enabled {
             Some(build_node(&config, &capture, device)?)
         } else {
             None
@@ -264,6 +264,7 @@ impl AvatarTrainer {
             capture,
             node,
             scenery,
+            scenery_choice,
             model,
             step: 0,
             background,
@@ -340,6 +341,10 @@ impl Method for AvatarTrainer {
 
     fn decisions(&self) -> Vec<String> {
         self.capture.decisions.clone()
+    }
+
+    fn modules(&self) -> Vec<ModuleChoice> {
+        vec![self.scenery_choice.clone()]
     }
 
     fn baselines(&self, lpips: Option<&Lpips>) -> Result<Vec<(String, Scores)>, TrainError> {

@@ -162,6 +162,9 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
     for decision in method.decisions() {
         out.say(&format!("  {decision}"));
     }
+    for module in method.modules() {
+        out.say(&format!("  {}", module.line()));
+    }
     let mut history = match &resumed {
         Some(c) => resumed_history(c, method.steps())?,
         None => {
@@ -285,6 +288,10 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
     );
     summary.insert("backend".into(), config.backend().name().into());
     summary.insert("decisions".into(), method.decisions().into());
+    summary.insert(
+        "modules".into(),
+        serde_json::to_value(method.modules()).expect("plain data"),
+    );
     summary.extend(extra);
     out.write_metrics(&metrics)?;
     let headline = history

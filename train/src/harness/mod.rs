@@ -13,9 +13,11 @@ pub mod arms;
 pub mod cli;
 mod epoch;
 mod metrics;
+mod modules;
 
 pub use epoch::EpochOrder;
 pub use metrics::{Evaluation, History, ScoreSum, Scores};
+pub use modules::ModuleChoice;
 
 use crate::backend::Backend;
 use crate::checkpoint::{Checkpoint, CheckpointError};
@@ -115,6 +117,9 @@ pub trait Method: Sized {
     fn decisions(&self) -> Vec<String> {
         Vec::new()
     }
+    /// Each optional module of the scene, whether this run built it and why (printed after the
+    /// decisions, kept in `metrics.json`'s `modules`).
+    fn modules(&self) -> Vec<ModuleChoice>;
     /// Reference scores computed once at the start of a fresh run (`metrics.json`'s
     /// `baselines`), by name.
     fn baselines(&self, _lpips: Option<&Lpips>) -> Result<Vec<(String, Scores)>, TrainError> {

@@ -152,7 +152,10 @@ pub fn run(
             });
             let record = match previous {
                 Some(r) => {
-                    bar.println(format!("{}: recorded before ({:?})", run.name(), r.status));
+                    show(
+                        &bar,
+                        &format!("{}: recorded before ({:?})", run.name(), r.status),
+                    );
                     r
                 }
                 None => {
@@ -161,7 +164,7 @@ pub fn run(
                     let mut r = trainer.run(run, &runs_dir, &log, headline)?;
                     r.config_hash.clone_from(hash);
                     write_json(&record_path, &r)?;
-                    bar.println(describe(&r));
+                    show(&bar, &describe(&r));
                     r
                 }
             };
@@ -185,6 +188,15 @@ pub fn run(
         options.out.display()
     ));
     Ok(report)
+}
+
+/// A line above the progress bar, or on stdout where the bar is hidden (not a terminal).
+fn show(bar: &ProgressBar, line: &str) {
+    if bar.is_hidden() {
+        println!("{line}");
+    } else {
+        bar.println(line);
+    }
 }
 
 fn describe(r: &PointRecord) -> String {

@@ -63,6 +63,9 @@ pub struct DataConfig {
     pub mask_people: Option<bool>,
     /// Decoded images kept in memory, MiB (least recently used dropped beyond it).
     pub cache_mib: usize,
+    /// Train on this many of the training views, evenly spread (a few-view scene); the synthetic
+    /// preset then initialises from those views' depth alone. Absent: every training view.
+    pub train_views: Option<usize>,
 }
 
 impl Default for DataConfig {
@@ -80,6 +83,7 @@ impl Default for DataConfig {
             background: [0.0; 3],
             mask_people: None,
             cache_mib: 4096,
+            train_views: None,
         }
     }
 }
@@ -164,13 +168,31 @@ impl ViewSet {
                 "test_every ≥ 2, init_stride ≥ 1 and downscale ≥ 1".into(),
             ));
         }
+        if config.train_views == Some(0) {
+            return Err(DataError::Config("data.train_views ≥ 1 (or absent)".into()));
+        }
         match config.source {
             DataSource::Synthetic => synthetic(config, device),
             DataSource::Dataset => {
                 let path = config.path.as_ref().ok_or_else(|| {
                     DataError::Config("source = \"dataset\" needs data.path".into())
                 })?;
-                dataset::static_views(path, config, device)
+                let mut set = dataset::static_views(path, config, device)?;
+                if let Some(n) = config.train_views {
+                    let all = set.train.len();
+                    let keep = evenly_spread(all, n);
+                    set.train = std::mem::take(&mut set.train)
+                        .into_iter()
+                        .enumerate()
+                        .filter_map(|(k, view)| keep.contains(&k).then_some(view))
+                        .collect();
+                    set.decisions.push(format!(
+                        "training on {} of {all} training views (data.train_views); the \
+                         capture's own points kept",
+                        set.train.len()
+                    ));
+                }
+                Ok(set)
             }
         }
     }
@@ -213,6 +235,15 @@ pub fn camera_extent(cameras: &[Camera]) -> f64 {
     1.1 * radius.max(1e-3)
 }
 
+/// `n` of the indices `0..count`, evenly spread (all of them when `n ≥ count`).
+pub fn evenly_spread(count: usize, n: usize) -> Vec<usize> {
+    if n >= count {
+        (0..count).collect()
+    } else {
+        (0..n).map(|i| i * count / n).collect()
+    }
+}
+
 pub fn split<T>(items: Vec<T>, test_every: usize) -> (Vec<T>, Vec<T>) {
     let (mut train, mut test) = (Vec::new(), Vec::new());
     for (k, item) in items.into_iter().enumerate() {
@@ -238,11 +269,26 @@ fn synthetic(config: &DataConfig, device: &Device) -> Result<ViewSet, DataError>
     let rendered = scene.render_frame(0);
     let mut points = InitPoints::default();
     let mut store = ImageStore::new(config.cache_mib, device);
-    let mut views = Vec::new();
+    // The training views kept (all, or `train_views` of them evenly spread).
+    let training: Vec<usize> = (0..rendered.len())
+        .filter(|k| k % config.test_every != 0)
+        .collect();
+    let kept: Vec<usize> = match config.train_views {
+        Some(n) => evenly_spread(training.len(), n)
+            .into_iter()
+            .map(|i| training[i])
+            .collect(),
+        None => training.clone(),
+    };
+    let (mut train, mut test) = (Vec::new(), Vec::new());
     for (k, truth) in rendered.iter().enumerate() {
+        let held_out = k % config.test_every == 0;
+        if !held_out && !kept.contains(&k) {
+            continue;
+        }
         let r = &truth.render;
         let srgb: Vec<f32> = r.color.iter().flat_map(|c| c.map(linear_to_srgb)).collect();
-        if k % config.test_every != 0 {
+        if !held_out {
             init_points::back_project(
                 &truth.camera,
                 &r.depth,
@@ -257,15 +303,30 @@ fn synthetic(config: &DataConfig, device: &Device) -> Result<ViewSet, DataError>
             person: None,
             valid: None,
         })));
-        views.push(View {
+        let view = View {
             name: format!("view_{k:03}"),
             camera: truth.camera,
             frame: 0,
             key,
-        });
+        };
+        if held_out {
+            test.push(view);
+        } else {
+            train.push(view);
+        }
     }
-    let extent = camera_extent(&views.iter().map(|v| v.camera).collect::<Vec<_>>());
-    let (train, test) = split(views, config.test_every);
+    let cameras: Vec<Camera> = rendered.iter().map(|t| t.camera).collect();
+    let extent = camera_extent(&cameras);
+    let mut decisions =
+        vec!["synthetic static preset: depth-initialised, every pixel trained".to_owned()];
+    if kept.len() < training.len() {
+        decisions.push(format!(
+            "training on {} of {} training views (data.train_views), initialised from their \
+             depth alone",
+            kept.len(),
+            training.len()
+        ));
+    }
     Ok(ViewSet {
         train,
         test,
@@ -273,7 +334,7 @@ fn synthetic(config: &DataConfig, device: &Device) -> Result<ViewSet, DataError>
         points,
         extent,
         mask_people: false,
-        decisions: vec!["synthetic static preset: depth-initialised, every pixel trained".into()],
+        decisions,
         store,
     })
 }

@@ -260,10 +260,19 @@ fn a_capture_with_a_background_node_resumes_exactly() {
     }
     let evaluation = whole.evaluate(None).unwrap();
     assert!(evaluation.extra.contains_key("novel_pose_scene_psnr"));
-    // Forced off, the same capture has no background node.
+    let chosen = whole.modules().remove(0);
+    assert!(chosen.enabled && chosen.forced_by.is_none(), "{chosen:?}");
+    assert!(chosen.reason.contains("sparse points"), "{chosen:?}");
+    // Forced off, the same capture has no background node, and says why.
     let mut off = config;
     off.scenery = Some(false);
-    assert!(AvatarTrainer::new(off, &device).unwrap().scenery.is_none());
+    let off = AvatarTrainer::new(off, &device).unwrap();
+    assert!(off.scenery.is_none());
+    let chosen = off.modules().remove(0);
+    assert!(
+        !chosen.enabled && chosen.forced_by.as_deref() == Some("scenery"),
+        "{chosen:?}"
+    );
 }
 
 #[test]
@@ -279,6 +288,10 @@ fn a_body_model_file_skins_the_avatar() {
     let mut trainer = AvatarTrainer::new(config.clone(), &device).unwrap();
     let decisions = trainer.decisions().join("\n");
     assert!(decisions.contains("shape coefficients kept"), "{decisions}");
+    // A studio capture without points of its surroundings gets no background node.
+    let chosen = trainer.modules().remove(0);
+    assert!(!chosen.enabled && chosen.forced_by.is_none(), "{chosen:?}");
+    assert!(trainer.scenery.is_none());
     assert!(trainer.step().unwrap().loss.is_finite());
     config.body_model = Some(dir.path().join("missing.npz"));
     let error = AvatarTrainer::new(config, &device)

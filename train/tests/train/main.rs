@@ -8,6 +8,7 @@ mod captures;
 mod commands;
 mod kl_density;
 mod losses_and_ply;
+mod modules;
 mod skinned;
 mod sweep;
 mod training;

@@ -48,6 +48,26 @@ fn trainer(config: ApfConfig) -> ApfTrainer {
 }
 
 #[test]
+fn accessory_nodes_can_be_forced_off() {
+    let mut config = small();
+    config.decouple.accessories = Some(false);
+    let t = trainer(config);
+    assert!(t.scene.accessories.is_empty());
+    let modules = t.modules();
+    let accessory: Vec<_> = modules
+        .iter()
+        .filter(|m| m.module.starts_with("accessory node"))
+        .collect();
+    assert_eq!(accessory.len(), t.scene.humans.len(), "{modules:?}");
+    for m in accessory {
+        assert!(
+            !m.enabled && m.forced_by.as_deref() == Some("decouple.accessories"),
+            "{m:?}"
+        );
+    }
+}
+
+#[test]
 fn the_graph_fits_the_data_and_s2_gradients_reach_every_learnable() {
     let mut t = trainer(with_accessories());
     // A13: the nodes the data calls for.
@@ -71,10 +91,21 @@ fn the_graph_fits_the_data_and_s2_gradients_reach_every_learnable() {
             "an accessory node for a person who carries something"
         );
     }
-    assert!(
-        t.decisions()
+    // Each tracked person's accessory node is reported with the rule's figures; the walker's
+    // is off by the data, not by a key.
+    let modules = t.modules();
+    let walker = modules
+        .iter()
+        .find(|m| m.module == format!("accessory node of {}", t.capture.people[3].name))
+        .expect("the walker's decision");
+    assert!(!walker.enabled && walker.forced_by.is_none(), "{walker:?}");
+    assert!(walker.reason.contains("threshold"), "{walker:?}");
+    assert_eq!(
+        modules
             .iter()
-            .any(|d| d.contains("no accessory node"))
+            .filter(|m| m.module.starts_with("accessory node") && m.enabled)
+            .count(),
+        t.scene.accessories.len()
     );
     // A4: after the warm-up, backward steps reach the networks, the embeddings, the
     // attachments and the poses.
