@@ -59,7 +59,12 @@ fn text(o: &Output) -> String {
 fn history(path: &Path) -> History {
     let text = std::fs::read_to_string(path).expect("metrics.json");
     let summary: serde_json::Value = serde_json::from_str(&text).expect("JSON");
-    for key in ["loop_seconds", "render_fps", "peak_memory_bytes"] {
+    for key in [
+        "loop_seconds",
+        "step_seconds",
+        "render_fps",
+        "peak_rss_bytes",
+    ] {
         let v = summary[key].as_f64().unwrap_or(f64::NAN);
         assert!(v.is_finite() && v > 0.0, "{}: {key} = {v}", path.display());
     }

@@ -145,6 +145,11 @@ fn view_dependence(config: &StaticConfig, views: usize) -> (ModuleChoice, u32) {
         Some(false) => 0,
         None => wanted.min(supported),
     };
+    // Forced on with `sh_degree = 0` there is still none.
+    let choice = ModuleChoice {
+        enabled: degree > 0,
+        ..choice
+    };
     (choice, degree)
 }
 

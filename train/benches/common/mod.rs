@@ -7,7 +7,7 @@ use std::process::Command;
 
 /// Peak resident memory of this process, MiB (NaN where the system does not say).
 pub fn peak_rss_mib() -> f64 {
-    splatzoo_train::harness::peak_memory_bytes().map_or(f64::NAN, |b| b as f64 / (1024.0 * 1024.0))
+    splatzoo_train::harness::peak_rss_bytes().map_or(f64::NAN, |b| b as f64 / (1024.0 * 1024.0))
 }
 
 /// The bench's `main`: in a child (`--child <backend> <steps>`) prints what `child` measured;

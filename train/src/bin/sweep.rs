@@ -26,9 +26,10 @@ struct Args {
     /// Another override for every point (repeatable; after the file's `base`).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     overrides: Vec<String>,
-    /// Sweep name: writes to `<runs>/sweep/<method>/<name>/`.
-    #[arg(long, default_value = "default")]
-    name: String,
+    /// Sweep name: writes to `<runs>/sweep/<method>/<name>/` (default: the grid file's stem, so
+    /// two sweep files of one method keep apart).
+    #[arg(long)]
+    name: Option<String>,
     #[arg(long, default_value = "runs")]
     runs: PathBuf,
     /// Where `train-<method>` is (default: beside this binary).
@@ -37,6 +38,9 @@ struct Args {
     /// Keeps runs recorded as failed instead of running them again.
     #[arg(long)]
     keep_failed: bool,
+    /// Runs everything again, whatever is recorded (after a rebuild, say).
+    #[arg(long)]
+    rerun: bool,
     /// Lists the points and their overrides (each checked by the trainer) and exits.
     #[arg(long)]
     dry_run: bool,
@@ -65,11 +69,19 @@ fn run(args: &Args) -> Result<(), TrainError> {
             .unwrap_or_default(),
     };
     let trainer = Trainer::find(&bin_dir, &spec.method)?;
+    let name = match &args.name {
+        Some(name) => name.clone(),
+        None => args
+            .grid
+            .file_stem()
+            .map_or("sweep".into(), |s| s.to_string_lossy().into_owned()),
+    };
     let options = SweepOptions {
         seeds: args.seeds,
-        out: args.runs.join("sweep").join(&spec.method).join(&args.name),
+        out: args.runs.join("sweep").join(&spec.method).join(name),
         base: args.overrides.clone(),
         retry_failed: !args.keep_failed,
+        rerun: args.rerun,
     };
     let mut say = |line: &str| println!("{line}");
     if args.dry_run {

@@ -4,7 +4,8 @@
 //! `config.toml` and `log.txt`, a progress bar, evaluations on the schedule (`metrics.json`
 //! rewritten atomically after each, its history kept across resumes), checkpoints on the
 //! schedule and on Ctrl-C (exit code 130), and at the end the method's exports and a summary
-//! (wall and loop time, steps/s, render FPS of the held-out frames, Gaussians, peak memory).
+//! (wall time, the training loop's time and its optimiser steps' alone, steps/s, render FPS of
+//! the held-out frames, Gaussians, peak resident memory).
 
 use super::{History, StepReport};
 use super::{Method, MethodConfig, Say, check_format, checkpoint_config, full_checkpoint};
@@ -127,11 +128,12 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
         None => M::Config::default(),
     };
     let config: M::Config = config::load(&base, args.config.as_deref(), &overrides::<M>(args))?;
+    // Validated before printing too, so a sweep learns of a bad value before it runs anything.
+    config.validate()?;
     if args.print_config {
         print!("{}", config::to_toml(&config));
         return Ok(ExitCode::SUCCESS);
     }
-    config.validate()?;
     let start = Instant::now();
     let device = config.backend().device();
     let lpips = config
@@ -199,10 +201,13 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
         full_checkpoint(method, &config, history).write(&checkpoint_path)
     };
     let loop_start = Instant::now();
+    let mut step_seconds = 0.0;
     let first_step = method.steps();
     let mut last_psnr = history.evaluations.last().map(|e| e.scores.psnr);
     while method.steps() < iterations {
+        let step_start = Instant::now();
         let StepReport { loss, note } = method.step()?;
+        step_seconds += step_start.elapsed().as_secs_f64();
         if !loss.is_finite() {
             return Err(TrainError::NonFinite {
                 step: method.steps(),
@@ -261,14 +266,12 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
     let run_path = out.run.path.clone();
     let loop_seconds = loop_start.elapsed().as_secs_f64();
     let extra = method.finish(&run_path, &mut out)?;
-    // Render speed: a warm-up pass, then a timed one.
-    method.render_held_out()?;
-    let render_start = Instant::now();
-    let frames = method.render_held_out()?;
-    let render_fps = frames as f64 / render_start.elapsed().as_secs_f64().max(1e-9);
-    out.say(&format!(
-        "rendering: {render_fps:.2} FPS over {frames} held-out frames"
-    ));
+    let (frames, render_fps) = render_speed(&method)?;
+    if let Some(fps) = render_fps {
+        out.say(&format!(
+            "rendering: {fps:.2} FPS over {frames} held-out frames (median of timed passes)"
+        ));
+    }
     let seconds = start.elapsed().as_secs_f64();
     let mut metrics = serde_json::to_value(&history).expect("plain data");
     let summary = metrics.as_object_mut().expect("a JSON object");
@@ -279,13 +282,11 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
     summary.insert("seconds".into(), seconds.into());
     summary.insert("steps_per_second".into(), rate.into());
     summary.insert("loop_seconds".into(), loop_seconds.into());
+    summary.insert("step_seconds".into(), step_seconds.into());
     summary.insert("render_fps".into(), render_fps.into());
     summary.insert("render_frames".into(), frames.into());
     summary.insert("gaussians".into(), method.gaussians().into());
-    summary.insert(
-        "peak_memory_bytes".into(),
-        super::peak_memory_bytes().into(),
-    );
+    summary.insert("peak_rss_bytes".into(), super::peak_rss_bytes().into());
     summary.insert("backend".into(), config.backend().name().into());
     summary.insert("decisions".into(), method.decisions().into());
     summary.insert(
@@ -303,6 +304,25 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
         out.run.path.display()
     ));
     Ok(ExitCode::SUCCESS)
+}
+
+/// Frames per pass and render FPS of the held-out frames: a warm-up pass, then timed passes
+/// until a second has gone by (at least three, at most twenty); the median pass's FPS. `None`
+/// when the method has no held-out frame.
+fn render_speed<M: Method>(method: &M) -> Result<(usize, Option<f64>), TrainError> {
+    let frames = method.render_held_out()?;
+    if frames == 0 {
+        return Ok((0, None));
+    }
+    let start = Instant::now();
+    let mut rates = Vec::new();
+    while rates.len() < 3 || (rates.len() < 20 && start.elapsed().as_secs_f64() < 1.0) {
+        let pass = Instant::now();
+        let n = method.render_held_out()?;
+        rates.push(n as f64 / pass.elapsed().as_secs_f64().max(1e-9));
+    }
+    rates.sort_by(f64::total_cmp);
+    Ok((frames, Some(rates[rates.len() / 2])))
 }
 
 /// The metrics history a checkpoint carries, cut at its step.

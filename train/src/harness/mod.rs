@@ -12,6 +12,7 @@
 pub mod arms;
 pub mod cli;
 mod epoch;
+pub mod extremes;
 mod metrics;
 mod modules;
 
@@ -129,8 +130,8 @@ pub trait Method: Sized {
     /// Held-out scores now.
     fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError>;
     /// Renders what [`Self::evaluate`] renders, once, without scoring it, each frame read back
-    /// to the host (see [`read_back`]); returns how many frames. The harness times a second
-    /// pass after training for `metrics.json`'s `render_fps` (inference: for a feed-forward
+    /// to the host (see [`read_back`]); returns how many frames. The harness times repeated
+    /// passes after training for `metrics.json`'s `render_fps` (inference: for a feed-forward
     /// method that includes decoding the avatar).
     fn render_held_out(&self) -> Result<usize, TrainError>;
     /// Gaussians in the whole scene now (`metrics.json`'s `gaussians`).
@@ -153,9 +154,10 @@ pub fn read_back<const D: usize>(image: &burn::tensor::Tensor<D>) {
     drop(crate::host_f32(image));
 }
 
-/// This process's peak resident memory in bytes (Linux's `VmHWM`; on lavapipe it includes the
-/// "GPU" buffers); `None` where the system does not say.
-pub fn peak_memory_bytes() -> Option<u64> {
+/// This process's peak resident memory in bytes (Linux's `VmHWM`: host memory, with image
+/// caches, LPIPS and exports; on lavapipe it includes the "GPU" buffers, on a real GPU it does
+/// not see device memory); `None` where the system does not say.
+pub fn peak_rss_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let kib = status
         .lines()

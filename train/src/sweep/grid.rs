@@ -208,6 +208,12 @@ pub fn slug(text: &str) -> String {
             }
         })
         .collect();
+    // A leading `-` would read as an option where the id becomes a run name.
+    let clean = if clean.starts_with('-') {
+        format!("p{clean}")
+    } else {
+        clean
+    };
     if clean.len() <= 80 {
         return clean;
     }

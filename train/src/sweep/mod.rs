@@ -3,10 +3,12 @@
 //! Each point of the sweep file ([`grid`]) runs the method's own `train-<method>` binary in a
 //! child process ([`runner`]) on the same data with the same held-out evaluation, once per seed;
 //! what the harness wrote into `metrics.json` (held-out PSNR/SSIM/LPIPS, the method's headline
-//! metric, loop time, steps/s, render FPS, Gaussians, peak memory) and the run's bytes on disk
+//! metric, optimiser-step time, steps/s, render FPS, Gaussians, peak resident memory) and the
+//! run's bytes on disk
 //! become a [`PointRecord`]. The sweep is resumable: a run whose record exists for the same
-//! effective configuration is not run again, and a failed run is recorded and the sweep goes
-//! on. At the end it writes `sweep.csv` (one row per run), `sweep.json` (runs and per-point
+//! effective configuration is not run again (a warning says when the trainer was rebuilt since;
+//! `rerun` measures everything again), and a failed run is recorded and the sweep goes on. A
+//! point with a failed seed is left off the fronts. At the end it writes `sweep.csv` (one row per run), `sweep.json` (runs and per-point
 //! summaries over seeds) and two Pareto figures ([`pareto`], [`plot`]): quality against training
 //! time and against render FPS, as PNG and SVG.
 //!
@@ -43,6 +45,8 @@ pub struct SweepOptions {
     pub base: Vec<String>,
     /// Runs again the runs recorded as failed.
     pub retry_failed: bool,
+    /// Runs every run again, whatever is recorded.
+    pub rerun: bool,
 }
 
 /// What `sweep.json` holds.
@@ -148,13 +152,23 @@ pub fn run(
         {
             let record_path = records.join(format!("{}.json", run.name()));
             let previous = read_record(&record_path).filter(|r| {
-                r.config_hash == *hash && (r.status == Status::Ok || !options.retry_failed)
+                !options.rerun
+                    && r.config_hash == *hash
+                    && (r.status == Status::Ok || !options.retry_failed)
             });
             let record = match previous {
                 Some(r) => {
+                    let rebuilt = if r.binary_modified != trainer.modified() {
+                        format!(
+                            "; {} was rebuilt since (--rerun measures it again)",
+                            trainer.binary.display()
+                        )
+                    } else {
+                        String::new()
+                    };
                     show(
                         &bar,
-                        &format!("{}: recorded before ({:?})", run.name(), r.status),
+                        &format!("{}: recorded before ({:?}){rebuilt}", run.name(), r.status),
                     );
                     r
                 }
@@ -266,7 +280,7 @@ fn summarise(
                 headline: spread(&|r| r.headline),
                 train_seconds: spread(&|r| r.train_seconds),
                 render_fps: spread(&|r| r.render_fps),
-                peak_memory_mib: spread(&|r| r.peak_memory_mib),
+                peak_rss_mib: spread(&|r| r.peak_rss_mib),
                 gaussians: spread(&|r| r.gaussians.map(|g| g as f64)),
                 time_front: false,
                 fps_front: false,
@@ -277,14 +291,18 @@ fn summarise(
         (Quality::Headline, Some(h)) if !h.higher_is_better => Better::Lower,
         _ => Better::Higher,
     };
-    let mean = |s: Option<Spread>| s.map_or(f64::NAN, |s| s.mean);
+    // A point with a failed seed stays off the fronts (its mean is over fewer runs).
+    let mean = |p: &PointSummary, s: Option<Spread>| match s {
+        Some(s) if p.failed == 0 => s.mean,
+        _ => f64::NAN,
+    };
     let time: Vec<[f64; 2]> = points
         .iter()
-        .map(|p| [mean(p.train_seconds), mean(p.quality)])
+        .map(|p| [mean(p, p.train_seconds), mean(p, p.quality)])
         .collect();
     let fps: Vec<[f64; 2]> = points
         .iter()
-        .map(|p| [mean(p.render_fps), mean(p.quality)])
+        .map(|p| [mean(p, p.render_fps), mean(p, p.quality)])
         .collect();
     let on_time = front(&time, [Better::Lower, y_better]);
     let on_fps = front(&fps, [Better::Higher, y_better]);
@@ -305,7 +323,7 @@ pub fn table(report: &SweepReport) -> String {
         Some(s) => format!("{:.d$}", s.mean, d = digits),
     };
     let mut text = format!(
-        "| point | overrides | {} | training s | render FPS | Gaussians | peak MiB | front |\n\
+        "| point | overrides | {} | training s | render FPS | Gaussians | peak RSS MiB | front |\n\
          |---|---|---|---|---|---|---|---|\n",
         report.quality
     );
@@ -332,7 +350,7 @@ pub fn table(report: &SweepReport) -> String {
             cell(p.train_seconds, 0),
             cell(p.render_fps, 2),
             cell(p.gaussians, 0),
-            cell(p.peak_memory_mib, 0),
+            cell(p.peak_rss_mib, 0),
             fronts.join(", ")
         ));
     }

@@ -24,18 +24,23 @@ pub struct PointRecord {
     pub set: Vec<String>,
     /// FNV-1a of the effective configuration: a finished run is reused only while it matches.
     pub config_hash: String,
+    /// The trainer binary's modification time (seconds since the epoch) when it ran.
+    pub binary_modified: Option<u64>,
     pub psnr: Option<f64>,
     pub ssim: Option<f64>,
     pub lpips: Option<f64>,
     /// The sweep file's headline metric.
     pub headline: Option<f64>,
-    /// The training loop's wall time (evaluations on the schedule included, exports not).
+    /// Wall time of the optimiser steps alone (held-out evaluations, checkpoints and exports
+    /// left out, so their schedule does not move a point).
     pub train_seconds: Option<f64>,
     /// The child's whole wall time (data, training, exports, the render timing).
     pub wall_seconds: Option<f64>,
     pub steps_per_second: Option<f64>,
     pub render_fps: Option<f64>,
-    pub peak_memory_mib: Option<f64>,
+    /// Peak resident host memory of the run (Linux's `VmHWM`; device memory on a real GPU is
+    /// not in it).
+    pub peak_rss_mib: Option<f64>,
     pub gaussians: Option<u64>,
     /// The final checkpoint (everything needed to resume).
     pub checkpoint_bytes: Option<u64>,
@@ -45,7 +50,7 @@ pub struct PointRecord {
 
 /// The columns of `sweep.csv`, in order.
 pub const CSV_HEADER: &str = "point,seed,status,psnr,ssim,lpips,headline,train_seconds,\
-wall_seconds,steps_per_second,render_fps,peak_memory_mib,gaussians,checkpoint_bytes,run_bytes,\
+wall_seconds,steps_per_second,render_fps,peak_rss_mib,gaussians,checkpoint_bytes,run_bytes,\
 set,error";
 
 impl PointRecord {
@@ -58,6 +63,7 @@ impl PointRecord {
             error: None,
             set: run.set.clone(),
             config_hash: String::new(),
+            binary_modified: None,
             psnr: None,
             ssim: None,
             lpips: None,
@@ -66,7 +72,7 @@ impl PointRecord {
             wall_seconds: None,
             steps_per_second: None,
             render_fps: None,
-            peak_memory_mib: None,
+            peak_rss_mib: None,
             gaussians: None,
             checkpoint_bytes: None,
             run_bytes: None,
@@ -90,10 +96,10 @@ impl PointRecord {
         self.ssim = number("/final/ssim");
         self.lpips = number("/final/lpips");
         self.headline = headline.and_then(number);
-        self.train_seconds = number("/loop_seconds");
+        self.train_seconds = number("/step_seconds").or_else(|| number("/loop_seconds"));
         self.steps_per_second = number("/steps_per_second");
         self.render_fps = number("/render_fps");
-        self.peak_memory_mib = number("/peak_memory_bytes").map(|b| b / (1024.0 * 1024.0));
+        self.peak_rss_mib = number("/peak_rss_bytes").map(|b| b / (1024.0 * 1024.0));
         self.gaussians = value
             .pointer("/gaussians")
             .and_then(serde_json::Value::as_u64);
@@ -127,7 +133,7 @@ impl PointRecord {
             f(self.wall_seconds),
             f(self.steps_per_second),
             f(self.render_fps),
-            f(self.peak_memory_mib),
+            f(self.peak_rss_mib),
             u(self.gaussians),
             u(self.checkpoint_bytes),
             u(self.run_bytes),
@@ -140,7 +146,7 @@ impl PointRecord {
 
 /// A value quoted for CSV where it needs to be.
 fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n']) {
+    if text.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", text.replace('"', "\"\""))
     } else {
         text.to_owned()
@@ -199,7 +205,7 @@ pub struct PointSummary {
     pub headline: Option<Spread>,
     pub train_seconds: Option<Spread>,
     pub render_fps: Option<Spread>,
-    pub peak_memory_mib: Option<Spread>,
+    pub peak_rss_mib: Option<Spread>,
     pub gaussians: Option<Spread>,
     /// On the front of quality against training time.
     pub time_front: bool,

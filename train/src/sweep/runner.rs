@@ -51,6 +51,12 @@ impl Trainer {
         }
     }
 
+    /// The binary's modification time, seconds since the epoch.
+    pub fn modified(&self) -> Option<u64> {
+        let time = std::fs::metadata(&self.binary).ok()?.modified().ok()?;
+        Some(time.duration_since(std::time::UNIX_EPOCH).ok()?.as_secs())
+    }
+
     fn command(&self, set: &[String]) -> Command {
         let mut command = Command::new(&self.binary);
         for s in set {
@@ -90,6 +96,17 @@ impl Trainer {
         log: &Path,
         headline: Option<&str>,
     ) -> Result<PointRecord, TrainError> {
+        // A fresh run: whatever an earlier run of this name left (its log, exports) goes.
+        if let Ok(methods) = std::fs::read_dir(runs) {
+            for method in methods.filter_map(Result::ok) {
+                let old = method.path().join(run.name());
+                if old.is_dir() {
+                    std::fs::remove_dir_all(&old).map_err(|e| {
+                        DatasetError::file(&old, format!("cannot clear the earlier run ({e})"))
+                    })?;
+                }
+            }
+        }
         let file = std::fs::File::create(log)
             .map_err(|e| DatasetError::file(log, format!("cannot create ({e})")))?;
         let err = file
@@ -110,10 +127,11 @@ impl Trainer {
         let wall = start.elapsed().as_secs_f64();
         let mut record = PointRecord::new(run);
         record.wall_seconds = Some(wall);
+        record.binary_modified = self.modified();
         let text = std::fs::read_to_string(log).unwrap_or_default();
         if !status.success() {
             record.status = Status::Failed;
-            record.error = Some(format!("exit {}: {}", exit_code(status), last_line(&text)));
+            record.error = Some(format!("{}: {}", exit_code(status), error_line(&text)));
             return Ok(record);
         }
         match run_dir(runs, &run.name()) {
@@ -140,10 +158,29 @@ pub fn run_dir(runs: &Path, name: &str) -> Option<PathBuf> {
         .find(|dir| dir.join("metrics.json").is_file())
 }
 
+/// `exit 1`, or `killed by signal 9`.
 fn exit_code(status: std::process::ExitStatus) -> String {
-    status
-        .code()
-        .map_or("by a signal".to_owned(), |c| c.to_string())
+    if let Some(code) = status.code() {
+        return format!("exit {code}");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        if let Some(signal) = status.signal() {
+            return format!("killed by signal {signal}");
+        }
+    }
+    "killed".to_owned()
+}
+
+/// The line that says what went wrong: the last one starting with `error` or holding
+/// `panicked`, else the last non-empty one.
+fn error_line(text: &str) -> String {
+    text.lines()
+        .rev()
+        .map(str::trim)
+        .find(|l| l.starts_with("error") || l.contains("panicked"))
+        .map_or_else(|| last_line(text), str::to_owned)
 }
 
 /// The last non-empty line of `text` (a failed child's error message).

@@ -66,6 +66,10 @@ pub struct DataConfig {
     /// Train on this many of the training views, evenly spread (a few-view scene); the synthetic
     /// preset then initialises from those views' depth alone. Absent: every training view.
     pub train_views: Option<usize>,
+    /// Scales the world: camera centres, near/far planes, initial points and the extent
+    /// (the images are unchanged, so a run is the same up to float rounding). Tests the
+    /// extremes of world units (millimetres, kilometres).
+    pub world_scale: f64,
 }
 
 impl Default for DataConfig {
@@ -84,6 +88,7 @@ impl Default for DataConfig {
             mask_people: None,
             cache_mib: 4096,
             train_views: None,
+            world_scale: 1.0,
         }
     }
 }
@@ -171,6 +176,43 @@ impl ViewSet {
         if config.train_views == Some(0) {
             return Err(DataError::Config("data.train_views ≥ 1 (or absent)".into()));
         }
+        let scale = config.world_scale;
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(DataError::Config(format!(
+                "data.world_scale must be finite and > 0, got {scale}"
+            )));
+        }
+        let mut set = Self::load_unscaled(config, device)?;
+        if scale != 1.0 {
+            set.scale_world(scale);
+        }
+        Ok(set)
+    }
+
+    /// Multiplies every world length by `s` (see [`DataConfig::world_scale`]).
+    fn scale_world(&mut self, s: f64) {
+        let sf = s as f32;
+        for view in self.train.iter_mut().chain(self.test.iter_mut()) {
+            let camera = &mut view.camera;
+            for row in &mut camera.world_to_camera {
+                row[3] *= sf;
+            }
+            camera.near *= sf;
+            camera.far *= sf;
+        }
+        for p in &mut self.points.positions {
+            *p = p.map(|v| v * sf);
+        }
+        for sigma in &mut self.points.sigmas {
+            *sigma *= sf;
+        }
+        self.extent *= s;
+        self.decisions.push(format!(
+            "world scaled by {s} (data.world_scale): cameras, points, extent"
+        ));
+    }
+
+    fn load_unscaled(config: &DataConfig, device: &Device) -> Result<Self, DataError> {
         match config.source {
             DataSource::Synthetic => synthetic(config, device),
             DataSource::Dataset => {
@@ -188,7 +230,7 @@ impl ViewSet {
                         .collect();
                     set.decisions.push(format!(
                         "training on {} of {all} training views (data.train_views); the \
-                         capture's own points kept",
+                         initial points still come from the whole capture",
                         set.train.len()
                     ));
                 }
@@ -235,12 +277,13 @@ pub fn camera_extent(cameras: &[Camera]) -> f64 {
     1.1 * radius.max(1e-3)
 }
 
-/// `n` of the indices `0..count`, evenly spread (all of them when `n ≥ count`).
+/// `n` of the indices `0..count`, evenly spread, each the middle of its share (all of them
+/// when `n ≥ count`).
 pub fn evenly_spread(count: usize, n: usize) -> Vec<usize> {
     if n >= count {
         (0..count).collect()
     } else {
-        (0..n).map(|i| i * count / n).collect()
+        (0..n).map(|i| (2 * i + 1) * count / (2 * n)).collect()
     }
 }
 
@@ -266,13 +309,12 @@ fn synthetic(config: &DataConfig, device: &Device) -> Result<ViewSet, DataError>
         ..SceneConfig::new(Preset::Static, config.seed)
     }
     .build(device);
-    let rendered = scene.render_frame(0);
     let mut points = InitPoints::default();
     let mut store = ImageStore::new(config.cache_mib, device);
-    // The training views kept (all, or `train_views` of them evenly spread).
-    let training: Vec<usize> = (0..rendered.len())
-        .filter(|k| k % config.test_every != 0)
-        .collect();
+    // The training views kept (all, or `train_views` of them evenly spread); only those and
+    // the held-out ones are rendered.
+    let count = scene.tracks.len();
+    let training: Vec<usize> = (0..count).filter(|k| k % config.test_every != 0).collect();
     let kept: Vec<usize> = match config.train_views {
         Some(n) => evenly_spread(training.len(), n)
             .into_iter()
@@ -280,12 +322,13 @@ fn synthetic(config: &DataConfig, device: &Device) -> Result<ViewSet, DataError>
             .collect(),
         None => training.clone(),
     };
+    let wanted: Vec<usize> = (0..count)
+        .filter(|k| k % config.test_every == 0 || kept.contains(k))
+        .collect();
+    let rendered = scene.render_tracks(0, &wanted, true);
     let (mut train, mut test) = (Vec::new(), Vec::new());
-    for (k, truth) in rendered.iter().enumerate() {
+    for (&k, truth) in wanted.iter().zip(&rendered) {
         let held_out = k % config.test_every == 0;
-        if !held_out && !kept.contains(&k) {
-            continue;
-        }
         let r = &truth.render;
         let srgb: Vec<f32> = r.color.iter().flat_map(|c| c.map(linear_to_srgb)).collect();
         if !held_out {
@@ -315,7 +358,7 @@ fn synthetic(config: &DataConfig, device: &Device) -> Result<ViewSet, DataError>
             train.push(view);
         }
     }
-    let cameras: Vec<Camera> = rendered.iter().map(|t| t.camera).collect();
+    let cameras: Vec<Camera> = scene.tracks.iter().map(|t| t.cameras[0]).collect();
     let extent = camera_extent(&cameras);
     let mut decisions =
         vec!["synthetic static preset: depth-initialised, every pixel trained".to_owned()];

@@ -6,6 +6,7 @@ mod avatar;
 mod capture_pieces;
 mod captures;
 mod commands;
+mod extremes;
 mod kl_density;
 mod losses_and_ply;
 mod modules;

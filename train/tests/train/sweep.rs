@@ -154,9 +154,10 @@ dir="$runs/fake/$name"; mkdir -p "$dir"
 head -c $iterations /dev/zero > "$dir/checkpoint.safetensors"
 psnr=$(awk "BEGIN{print 20 + $iterations/100 + $seed*0.1 - $penalty}")
 secs=$(awk "BEGIN{print $iterations/10}")
+loop=$(awk "BEGIN{print $iterations/10 + 1.5}")
 fps=$(awk "BEGIN{print 1000/$iterations}")
 cat > "$dir/metrics.json" <<JSON
-{"method":"fake","evaluations":[],"final":{"step":$iterations,"psnr":$psnr,"ssim":0.9,"lpips":null,"fake":{"face_psnr":$psnr}},"seconds":1.5,"loop_seconds":$secs,"steps_per_second":10,"render_fps":$fps,"gaussians":$iterations,"peak_memory_bytes":2097152}
+{"method":"fake","evaluations":[],"final":{"step":$iterations,"psnr":$psnr,"ssim":0.9,"lpips":null,"fake":{"face_psnr":$psnr}},"seconds":1.5,"loop_seconds":$loop,"step_seconds":$secs,"steps_per_second":10,"render_fps":$fps,"gaussians":$iterations,"peak_rss_bytes":2097152}
 JSON
 "#;
 
@@ -182,11 +183,16 @@ name = "broken"
 set = ["fail=true"]
 "#;
 
-fn calls(out: &Path) -> usize {
+fn call_names(out: &Path) -> Vec<String> {
     std::fs::read_to_string(out.join("calls.txt"))
         .unwrap_or_default()
         .lines()
-        .count()
+        .map(str::to_owned)
+        .collect()
+}
+
+fn calls(out: &Path) -> usize {
+    call_names(out).len()
 }
 
 #[test]
@@ -200,6 +206,7 @@ fn a_sweep_measures_every_point_records_failures_and_resumes() {
         out: out.clone(),
         base: vec![],
         retry_failed: true,
+        rerun: false,
     };
     let mut lines = Vec::new();
     let report = sweep::run(&spec, &trainer, &options, &mut |l| lines.push(l.to_owned())).unwrap();
@@ -239,7 +246,7 @@ fn a_sweep_measures_every_point_records_failures_and_resumes() {
     assert_eq!(default.train_seconds, Some(10.0));
     assert_eq!(default.render_fps, Some(10.0));
     assert_eq!(default.gaussians, Some(100));
-    assert_eq!(default.peak_memory_mib, Some(2.0));
+    assert_eq!(default.peak_rss_mib, Some(2.0));
     assert_eq!(default.checkpoint_bytes, Some(100));
     assert!(default.run_bytes.unwrap() > 100);
     let fronts: Vec<(bool, bool)> = report
@@ -303,14 +310,32 @@ fn a_sweep_measures_every_point_records_failures_and_resumes() {
     };
     sweep::run(&spec, &trainer, &keep, &mut |_| {}).unwrap();
     assert_eq!(calls(&out), 7);
-    // A changed base changes every configuration: everything runs again.
+    // A base override changes the configuration of every point it is not overridden in: those
+    // run again (the broken one too: its configuration changed, so its record does not
+    // count); `wasteful` sets its own penalty, so its configuration and record stand.
     let changed = SweepOptions {
         base: vec!["penalty=1".into()],
         ..keep
     };
     let shifted = sweep::run(&spec, &trainer, &changed, &mut |_| {}).unwrap();
-    assert_eq!(calls(&out), 7 + 5, "the broken run stays failed and kept");
+    assert_eq!(
+        call_names(&out)[7..],
+        [
+            "default-s0",
+            "iterations=50-s0",
+            "iterations=200-s0",
+            "iterations=400-s0",
+            "broken-s0"
+        ]
+    );
     assert_eq!(shifted.runs[0].psnr, Some(20.0));
+    // --rerun measures everything again.
+    let rerun = SweepOptions {
+        rerun: true,
+        ..changed
+    };
+    sweep::run(&spec, &trainer, &rerun, &mut |_| {}).unwrap();
+    assert_eq!(calls(&out), 12 + 6);
 }
 
 #[test]
@@ -323,6 +348,7 @@ fn seeds_give_ranges_and_bad_overrides_are_refused_before_any_run() {
         out: out.clone(),
         base: vec![],
         retry_failed: true,
+        rerun: false,
     };
     let spec2 = spec(
         "method = \"fake\"\nquality = \"headline\"\nheadline = { name = \"face PSNR\", pointer = \"/final/fake/face_psnr\" }\n[[knob]]\nkey = \"iterations\"\nvalues = [200]\n",
@@ -391,14 +417,14 @@ fn the_sweep_binary_runs_train_3dgs_and_names_a_missing_trainer() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(out.status.success(), "{text}");
-    let folder = dir.path().join("runs/sweep/3dgs/default");
+    let folder = dir.path().join("runs/sweep/3dgs/sweep");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(folder.join("sweep.json")).unwrap()).unwrap();
     let runs = json["runs"].as_array().unwrap();
     assert_eq!(runs.len(), 2, "{json}");
     for run in runs {
         assert_eq!(run["status"], "ok", "{run}");
-        for key in ["psnr", "train_seconds", "render_fps", "peak_memory_mib"] {
+        for key in ["psnr", "train_seconds", "render_fps", "peak_rss_mib"] {
             let v = run[key].as_f64().unwrap_or(f64::NAN);
             assert!(v.is_finite() && v > 0.0, "{key}: {run}");
         }

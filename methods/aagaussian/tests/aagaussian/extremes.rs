@@ -159,3 +159,50 @@ fn an_empty_face_view_is_finite_and_pulls_nothing() {
     ));
     assert!((value[0] - 1.0).abs() < 1e-5, "{value:?}");
 }
+
+/// A whole training step under extreme inputs, through the engine's shared check: a 1×1 SDS
+/// render, one view per step, a single initial Gaussian, scene extents of 1e-3 and 1e3: each
+/// a finite step with finite state, or a refusal naming the knob.
+#[test]
+fn a_whole_step_at_the_extremes_is_finite_or_refused_by_name() {
+    use splatzoo_aagaussian::Aag;
+    use splatzoo_aagaussian::config::AagConfig;
+    use splatzoo_train::harness::extremes::{StepOutcome, one_step};
+    let tiny = || {
+        let mut c = AagConfig {
+            gaussians: 300,
+            batch: 2,
+            render_size: 8,
+            data: crate::common::tiny_portrait(8),
+            ..AagConfig::default()
+        };
+        c.face.start = 0;
+        c
+    };
+    let device = Backend::Flex.device();
+    type Change = fn(&mut AagConfig);
+    let cases: [(&str, Change); 5] = [
+        ("1×1 render", |c| c.render_size = 1),
+        ("one view a step", |c| c.batch = 1),
+        ("one Gaussian", |c| c.gaussians = 1),
+        ("extent 1e-3", |c| c.extent = 1e-3),
+        ("extent 1e3", |c| c.extent = 1e3),
+    ];
+    for (what, change) in cases {
+        let mut config = tiny();
+        change(&mut config);
+        match one_step::<Aag>(config, &device) {
+            Ok(StepOutcome::Finite { loss }) => assert!(loss.is_finite()),
+            Ok(StepOutcome::Refused(message)) => {
+                assert!(!message.is_empty(), "{what}: an empty refusal")
+            }
+            Err(failure) => panic!("{what}: {failure}"),
+        }
+    }
+    let mut none = tiny();
+    none.gaussians = 0;
+    match one_step::<Aag>(none, &device) {
+        Ok(StepOutcome::Refused(message)) => assert!(message.contains("gaussians"), "{message}"),
+        other => panic!("no Gaussians: {other:?}"),
+    }
+}
