@@ -19,8 +19,7 @@ pub enum StepOutcome {
 }
 
 /// Validates `config`, builds `M` from it, takes one step and checks the outcome (module docs).
-/// `Err`
-/// describes a failure: a panic, a non-finite loss, or the first state tensor holding a
+/// `Err` describes a failure: a panic, a non-finite loss, or the first state tensor holding a
 /// non-finite value.
 pub fn one_step<M: Method>(config: M::Config, device: &Device) -> Result<StepOutcome, String> {
     let run = catch_unwind(AssertUnwindSafe(|| {
