@@ -217,8 +217,13 @@ pub fn slug(text: &str) -> String {
     if clean.len() <= 80 {
         return clean;
     }
+    format!("{}-{}", &clean[..63], fnv1a_hex(text))
+}
+
+/// FNV-1a of `text` as 16 hex digits (run ids and configuration hashes).
+pub(crate) fn fnv1a_hex(text: &str) -> String {
     let hash = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
         (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
     });
-    format!("{}-{hash:016x}", &clean[..63])
+    format!("{hash:016x}")
 }

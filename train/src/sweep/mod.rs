@@ -60,14 +60,6 @@ pub struct SweepReport {
     pub points: Vec<PointSummary>,
 }
 
-/// FNV-1a of a configuration's text, as 16 hex digits.
-fn config_hash(text: &str) -> String {
-    let hash = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
-    });
-    format!("{hash:016x}")
-}
-
 /// A point and its runs, one per seed.
 #[derive(Debug, Clone)]
 pub struct PlannedPoint {
@@ -100,7 +92,7 @@ pub fn plan(
                 set.push(format!("seed={seed}"));
             }
             runs.push(PlannedRun {
-                config_hash: config_hash(&trainer.effective_config(&set)?),
+                config_hash: grid::fnv1a_hex(&trainer.effective_config(&set)?),
                 spec: RunSpec {
                     point: point.id.clone(),
                     seed,
