@@ -274,17 +274,27 @@ impl Default for IllumWeights {
 pub struct Ablation {
     /// PBR shading by the light volume; off, stage 2 learns a per-Gaussian colour.
     pub light_volume: bool,
-    /// The shadow decoder F_ao.
-    pub shadow: bool,
+    /// The shadow decoder F_ao: absent, the capture decides (built where the person's shadow
+    /// falls on the scene, [`crate::needs`]); `true` or `false` forces it. The trainer keeps
+    /// the decision here, so after it is built this is never `None`.
+    pub shadow: Option<bool>,
     /// Stage 1 before stage 2; off, stage 2 starts from the unrefined body.
     pub two_stage: bool,
+}
+
+impl Ablation {
+    /// Whether the shadow decoder runs: unless forced off (the trainer resolves `None` from
+    /// the capture before anything reads this).
+    pub fn shadow_decoder(&self) -> bool {
+        self.shadow != Some(false)
+    }
 }
 
 impl Default for Ablation {
     fn default() -> Self {
         Self {
             light_volume: true,
-            shadow: true,
+            shadow: None,
             two_stage: true,
         }
     }

@@ -47,12 +47,26 @@ pub enum Room {
     B,
 }
 
+/// The light the person is filmed under.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CaptureLight {
+    /// The room's point light with shadow maps, its ambient term and environment: the person's
+    /// shadow falls on the room (the paper's setting).
+    #[default]
+    Point,
+    /// The room's ambient term and environment alone (overcast, diffuse): nothing casts a
+    /// shadow, so the capture calls for no shadow decoder ([`crate::needs`]).
+    Diffuse,
+}
+
 /// The capture's size and split.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct IllumDataConfig {
     pub seed: u64,
     pub room: Room,
+    pub light: CaptureLight,
     pub width: u32,
     pub height: u32,
     /// Frames of the hand-held video.
@@ -74,6 +88,7 @@ impl Default for IllumDataConfig {
         Self {
             seed: 11,
             room: Room::A,
+            light: CaptureLight::Point,
             width: 160,
             height: 120,
             frames: 60,
@@ -298,6 +313,10 @@ impl IllumDataConfig {
                 scene.environment = environment::room(self.seed ^ 0x0B0B, 6.5, 2.8);
                 scene.lighting = room_b_lighting(self.shadow_resolution);
             }
+        }
+        if self.light == CaptureLight::Diffuse {
+            scene.lighting.light = None;
+            scene.lighting.shadow_resolution = None;
         }
         let held_out = |t: usize| t % self.test_every == self.test_every - 1;
 

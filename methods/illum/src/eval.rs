@@ -341,7 +341,7 @@ impl IllumTrainer {
             };
             scores.shadow_pixels += shadowed.len();
             shadow_sum += error(&rendered);
-            if self.config.ablation.shadow {
+            if self.config.ablation.shadow_decoder() {
                 let open = self.render_view(nets, &frame.camera, &pose, false)?;
                 shadow_open_sum += error(&host_f32(&open.colour));
             }
@@ -370,7 +370,7 @@ impl IllumTrainer {
         }
         let pixels = (3 * scores.shadow_pixels).max(1) as f64;
         scores.shadow_error = shadow_sum / pixels;
-        if self.config.ablation.shadow {
+        if self.config.ablation.shadow_decoder() {
             scores.shadow_error_without_ao = Some(shadow_open_sum / pixels);
         }
         if pbr && !albedo_pairs.is_empty() {

@@ -40,6 +40,7 @@ pub mod human;
 pub mod light_volume;
 pub mod lighting;
 pub mod method;
+pub mod needs;
 pub mod onnx;
 pub mod pbr;
 pub mod render;

@@ -140,10 +140,10 @@ impl Illum {
         } else {
             "shading: none (ablation.light_volume = false: a per-Gaussian colour)".into()
         });
-        lines.push(if c.ablation.shadow {
+        lines.push(if c.ablation.shadow_decoder() {
             "shadows: decoder F_ao on scene Gaussians in the person's box".into()
         } else {
-            "shadows: none (ablation.shadow = false)".into()
+            "shadows: none (the shadow decoder is off: its module line says why)".into()
         });
         lines
     }
@@ -296,7 +296,8 @@ impl Method for Illum {
         .with("illum", serde_json::to_value(&scores).expect("plain data")))
     }
 
-    /// Each of the paper's modules by its switch (the ablations); no data rule decides them yet.
+    /// The shadow decoder as the capture calls for it ([`crate::needs`]); the other modules by
+    /// their switches (the ablations).
     fn modules(&self) -> Vec<ModuleChoice> {
         let a = &self.trainer.config.ablation;
         vec![
@@ -305,7 +306,7 @@ impl Method for Illum {
                 "ablation.light_volume",
                 a.light_volume,
             ),
-            ModuleChoice::configured("shadow decoder F_ao (Eq. 8–9)", "ablation.shadow", a.shadow),
+            self.trainer.shadow_choice.clone(),
             ModuleChoice::configured("stage 1 (refined body)", "ablation.two_stage", a.two_stage),
         ]
     }

@@ -121,7 +121,7 @@ impl IllumTrainer {
         scene_means: &Tensor<2>,
         human_points: &[[f64; 3]],
     ) -> Result<(Option<Tensor<1>>, Vec<bool>), IllumError> {
-        if !self.config.ablation.shadow {
+        if !self.config.ablation.shadow_decoder() {
             return Ok((None, Vec::new()));
         }
         let shadow_box = ShadowBox::around(human_points, 1, self.config.light.shadow_pad)?;
@@ -202,7 +202,7 @@ impl IllumTrainer {
     }
 
     fn step_decoder(&mut self, grads: &Gradients) {
-        if self.config.ablation.shadow {
+        if self.config.ablation.shadow_decoder() {
             self.decoder =
                 self.decoder_adam
                     .step(self.decoder.clone(), grads, self.config.light.decoder_lr);

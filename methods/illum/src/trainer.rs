@@ -20,6 +20,7 @@ use crate::data::IllumCapture;
 use crate::human::{BodyMesh, RefinedBody};
 use crate::light_volume::{LightVolume, ProbeGrid};
 use crate::lighting::KnnTransfer;
+use crate::needs::shadow_decoder;
 use crate::shadow::ShadowDecoder;
 use crate::stage2::{Binding, PbrHuman};
 use crate::visibility::VisibilityNet;
@@ -35,7 +36,7 @@ use splatzoo_models::networks::hash_mlp::HashMlp;
 use splatzoo_models::networks::initialised;
 use splatzoo_train::adam::{AdamConfig, AdamState};
 use splatzoo_train::gaussians::{GaussianSet, SH_REST};
-use splatzoo_train::harness::EpochOrder;
+use splatzoo_train::harness::{EpochOrder, ModuleChoice};
 use splatzoo_train::host_f32;
 use splatzoo_train::module_adam::{ModuleAdam, NETWORK_ADAM};
 use splatzoo_train::scene::GaussianNode;
@@ -102,6 +103,9 @@ pub struct IllumTrainer {
     pub stage2: Option<Stage2State>,
     pub order: EpochOrder,
     pub step: usize,
+    /// Whether the capture called for the shadow decoder, and why ([`crate::needs`]); the
+    /// decision is also in `config.ablation.shadow`.
+    pub shadow_choice: ModuleChoice,
 }
 
 /// `[M, K]` nearest neighbours (self excluded) of every point, as Burn indices.
@@ -144,7 +148,7 @@ impl IllumTrainer {
     /// A fresh trainer on a capture already built from `config.data` (benches and ablations
     /// share one); the networks' initial weights depend only on `config.seed`.
     pub fn from_capture(
-        config: IllumConfig,
+        mut config: IllumConfig,
         capture: IllumCapture,
         device: &Device,
     ) -> Result<Self, IllumError> {
@@ -154,6 +158,8 @@ impl IllumTrainer {
                 "built from another data configuration than the run's `data`",
             ));
         }
+        let shadow_choice = shadow_decoder(config.ablation.shadow, &capture);
+        config.ablation.shadow = Some(shadow_choice.enabled);
         device.seed(config.seed ^ 0x111_0000);
         let autodiff = device.clone().autodiff();
         let mesh = BodyMesh::new(&builtin_body().model, config.stage1.body.subdivisions)?;
@@ -244,6 +250,7 @@ impl IllumTrainer {
             stage2: None,
             order: EpochOrder::new(config.seed ^ 0x111_0003),
             step: 0,
+            shadow_choice,
             train,
             mesh,
             laplacian,

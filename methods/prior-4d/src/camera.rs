@@ -5,11 +5,34 @@
 //! centres `Rᵀ (x − c)`, rotations `q(Rᵀ) ⊗ q` — and rendered by a camera at the origin with
 //! the same intrinsics ([`camera_at_origin`]). The refinement of acting camera `t` is
 //! `R'_t = exp([ω_t]×) R_t`, `c'_t = c_t + τ_t` (spec §3, zero at the start).
+//!
+//! Whether a capture needs it is a data rule ([`refinement_choice`]): only where the acting
+//! cameras are estimated (SfM) rather than calibrated.
 
+use crate::data::CameraSource;
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::rotation::{axis_angle_to_matrix, matrix_to_quaternion};
 use splatzoo_rasterizer::{Camera, Splats};
+use splatzoo_train::harness::ModuleChoice;
 use splatzoo_train::scene::skinned::skinning::quaternion_product;
+
+/// Stage D's camera refinement for a capture whose acting cameras come from `source`:
+/// `forced` (`joint.camera_refinement`) wins; otherwise on for estimated cameras, off for
+/// calibrated ones (there it has nothing to correct, yet costs its gradients and Adam steps
+/// and can drift).
+pub fn refinement_choice(forced: Option<bool>, source: CameraSource) -> ModuleChoice {
+    let why = match source {
+        CameraSource::Estimated => "the acting cameras are estimated (SfM): refined",
+        CameraSource::Calibrated => "the acting cameras are calibrated: kept as given",
+    };
+    ModuleChoice::decide(
+        "acting-camera refinement",
+        "joint.camera_refinement",
+        forced,
+        source == CameraSource::Estimated,
+        why,
+    )
+}
 
 /// A camera-to-world rigid transform: `x_world = R x_local + c`.
 #[derive(Debug, Clone)]

@@ -159,8 +159,10 @@ pub struct JointConfig {
     /// Learn the pose-dependent offsets ΔV_pose, ΔS_pose.
     pub pose_offsets: bool,
     pub offset_network: PoseOffsetConfig,
-    /// Refine the acting cameras (off for the paper's comparisons, §5.1.3).
-    pub camera_refinement: bool,
+    /// Refine the acting cameras (off for the paper's comparisons, §5.1.3). Absent, the
+    /// capture decides: on where its acting cameras are estimated, off where they are
+    /// calibrated ([`crate::camera::refinement_choice`]); the run keeps the decision here.
+    pub camera_refinement: Option<bool>,
     /// Optimise every scene parameter (the "all scene params" ablation) instead of SH only.
     pub free_scene: bool,
     /// σ₀ from the plane (§4.2); otherwise `initial_sigma`. Either is multiplied by
@@ -173,6 +175,14 @@ pub struct JointConfig {
     pub rates: JointRates,
     /// Evaluate every this many synchronised frames.
     pub eval_stride: usize,
+}
+
+impl JointConfig {
+    /// Whether stage D refines the acting cameras: unless forced off (the run resolves `None`
+    /// from the capture before anything reads this).
+    pub fn refines_cameras(&self) -> bool {
+        self.camera_refinement != Some(false)
+    }
 }
 
 impl Default for JointConfig {
@@ -189,7 +199,7 @@ impl Default for JointConfig {
             contact_rule: ContactConfig::default(),
             pose_offsets: true,
             offset_network: PoseOffsetConfig::default(),
-            camera_refinement: true,
+            camera_refinement: None,
             free_scene: false,
             sigma_from_plane: true,
             initial_sigma: 1.0,

@@ -29,7 +29,7 @@ pub fn write_outputs(
         ))
     })?;
     let capture = &method.capture;
-    let refine = method.config.joint.camera_refinement;
+    let refine = method.config.joint.refines_cameras();
     write_ply(&run.join("scene_prior.ply"), &method.scene.node.set)?;
     write_ply(&run.join("scene.ply"), &joint.scene.set)?;
     write_ply(

@@ -316,7 +316,7 @@ impl JointStage {
         let view = self.acting_view(
             capture,
             t,
-            j.camera_refinement,
+            j.refines_cameras(),
             Some((&rotation, &translation)),
         );
         let avatar = self.placed_avatar(capture, t, &view, s.clone());
@@ -420,7 +420,7 @@ impl JointStage {
                 self.sigma_adam
                     .step(self.log_sigma.clone(), g, rates.log_scale, &TABLE_ADAM);
         }
-        if j.camera_refinement {
+        if j.refines_cameras() {
             if let Some(g) = rotation.grad(&grads) {
                 self.camera_rotation = self.rotation_adam.step(
                     self.camera_rotation.clone(),

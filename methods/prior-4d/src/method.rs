@@ -6,6 +6,7 @@
 
 use crate::avatar::avatar_model;
 use crate::avatar_stage::{AvatarStage, SCAN_AVATAR};
+use crate::camera::refinement_choice;
 use crate::config::Prior4dConfig;
 use crate::data::Prior4dCapture;
 use crate::error::Prior4dError;
@@ -71,6 +72,9 @@ pub struct Prior4d {
     pub priors_only: Option<JointScores>,
     pub step: usize,
     decisions: Vec<String>,
+    /// Whether the capture called for camera refinement, and why (also kept, resolved, in
+    /// `config.joint.camera_refinement`).
+    pub camera_choice: ModuleChoice,
 }
 
 impl Prior4d {
@@ -84,9 +88,12 @@ impl Prior4d {
         }
     }
 
-    fn assemble(config: Prior4dConfig, device: &Device) -> Result<Self, Prior4dError> {
+    fn assemble(mut config: Prior4dConfig, device: &Device) -> Result<Self, Prior4dError> {
         device.seed(config.seed);
         let capture = config.data.build(device)?;
+        let camera_choice =
+            refinement_choice(config.joint.camera_refinement, capture.acting_cameras);
+        config.joint.camera_refinement = Some(camera_choice.enabled);
         let model = avatar_model(config.avatar.subdivisions);
         let scene = SceneStage::new(&capture, &config.scene, config.seed, device)?;
         let avatar = AvatarStage::new(&capture, &model, &config.avatar, config.seed, device)?;
@@ -114,6 +121,7 @@ impl Prior4d {
             priors_only: None,
             step: 0,
             decisions,
+            camera_choice,
         })
     }
 
@@ -165,7 +173,7 @@ impl Prior4d {
     ) -> Result<JointScores, Prior4dError> {
         joint.evaluate(
             &self.capture,
-            self.config.joint.camera_refinement,
+            self.config.joint.refines_cameras(),
             self.config.joint.eval_stride,
             self.sigma_star(),
             lpips,
@@ -410,7 +418,8 @@ impl Method for Prior4d {
         Ok(evaluation)
     }
 
-    /// Stage D's optional parts by their switches (the ablations); no data rule decides them yet.
+    /// Camera refinement as the capture calls for it ([`crate::camera::refinement_choice`]);
+    /// stage D's other optional parts by their switches (the ablations).
     fn modules(&self) -> Vec<ModuleChoice> {
         let j = &self.config.joint;
         vec![
@@ -419,11 +428,7 @@ impl Method for Prior4d {
                 "joint.pose_offsets",
                 j.pose_offsets,
             ),
-            ModuleChoice::configured(
-                "acting-camera refinement",
-                "joint.camera_refinement",
-                j.camera_refinement,
-            ),
+            self.camera_choice.clone(),
             ModuleChoice::configured("normal term (Eq. 6)", "joint.normal > 0", j.normal > 0.0),
             ModuleChoice::configured("contact term (Eq. 7)", "joint.contact > 0", j.contact > 0.0),
         ]
@@ -434,7 +439,7 @@ impl Method for Prior4d {
         Ok(match &self.joint {
             Some(joint) => joint.render_held_out(
                 &self.capture,
-                self.config.joint.camera_refinement,
+                self.config.joint.refines_cameras(),
                 self.config.joint.eval_stride,
             )?,
             None => {

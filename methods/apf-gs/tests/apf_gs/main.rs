@@ -5,6 +5,7 @@
 
 mod accessory;
 mod decouple;
+mod extremes;
 mod gate;
 mod objective;
 mod onnx;

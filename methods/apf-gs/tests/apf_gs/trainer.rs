@@ -13,7 +13,7 @@ use splatzoo_train::host_f32;
 use splatzoo_train::scene::SceneNode;
 
 /// A small capture: 15 frames (timestep 14 held out) at 192×108, two-step warm-up.
-fn small() -> ApfConfig {
+pub fn small() -> ApfConfig {
     let mut c = ApfConfig {
         iterations: 6,
         warmup: 2,

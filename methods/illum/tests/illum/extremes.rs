@@ -1,14 +1,16 @@
 //! Extremes (spec §8, check 14) across the pipeline: no human Gaussians, probe SH of 1e15, a
 //! human far outside the light volume, grazing and back-facing views, a zero-area face on the
-//! body, and a human behind the camera: finite values and gradients, or a clear error, never a
-//! panic or a NaN.
+//! body, and a human behind the camera; whole training steps into stage 2 at the smallest
+//! sizes: finite values and gradients, or a clear error, never a panic or a NaN.
 
 use crate::values;
 use burn::module::Param;
 use burn::tensor::{Device, Tensor, TensorData};
+use splatzoo_illum::config::IllumConfig;
 use splatzoo_illum::human::{BodyMesh, RefinedBody, Stage1Config};
 use splatzoo_illum::light_volume::{LightVolume, ProbeGrid};
 use splatzoo_illum::lighting::{LitGaussians, Material, SamplingConfig, shade_gaussians};
+use splatzoo_illum::method::Illum;
 use splatzoo_illum::pbr::Shading;
 use splatzoo_illum::render::{HumanLayer, render_joint};
 use splatzoo_illum::sampling::HemisphereRule;
@@ -16,6 +18,7 @@ use splatzoo_models::body::builtin_body;
 use splatzoo_models::networks::hash_grid::HashGridConfig;
 use splatzoo_models::networks::hash_mlp::HashMlpConfig;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings};
+use splatzoo_train::harness::extremes::{StepOutcome, after_steps, assert_stable};
 
 fn finite(v: &[f32]) -> bool {
     v.iter().all(|x| x.is_finite())
@@ -173,4 +176,52 @@ fn a_human_behind_the_camera_leaves_empty_maps() {
     assert!(values(maps.human_alpha).iter().all(|&a| a == 0.0));
     let colour = values(maps.colour);
     assert!(colour.chunks(3).all(|c| c == [0.2, 0.3, 0.4]));
+}
+
+/// Stage 1 of the tiny capture, then the first stage-2 step, with `change` applied.
+fn into_stage_2(what: &str, change: impl FnOnce(&mut IllumConfig)) -> StepOutcome {
+    let mut config = crate::trainer::tiny();
+    change(&mut config);
+    let steps = config.stage1.steps + 1;
+    assert_stable(what, after_steps::<Illum>(config, &Device::flex(), steps))
+}
+
+/// Whole steps into stage 2 through the engine's shared check: the smallest image the capture
+/// takes (8×8; 1×1 is refused by name), the fewest frames (one trained, one held out), one
+/// scene point, one hemisphere sample per shading point, a one-step stage 1. Each is a finite
+/// step with finite state (light volume, networks, both Gaussian sets, optimiser moments).
+#[test]
+fn whole_steps_at_the_extremes_are_finite_or_refused_by_name() {
+    type Change = fn(&mut IllumConfig);
+    let cases: [(&str, Change); 5] = [
+        ("8×8 image", |c| {
+            c.data.width = 8;
+            c.data.height = 8;
+        }),
+        ("two frames", |c| {
+            c.data.frames = 2;
+            c.data.test_every = 2;
+        }),
+        ("one scene point", |c| c.data.scene_points = 1),
+        ("one hemisphere sample", |c| {
+            c.stage2.samples = 1;
+            c.stage2.eval_samples = 1;
+        }),
+        ("a one-step stage 1", |c| c.stage1.steps = 1),
+    ];
+    for (what, change) in cases {
+        let outcome = into_stage_2(what, change);
+        assert!(
+            matches!(outcome, StepOutcome::Finite { .. }),
+            "{what}: {outcome:?}"
+        );
+    }
+    let pixel = into_stage_2("1×1 image", |c| {
+        c.data.width = 1;
+        c.data.height = 1;
+    });
+    match pixel {
+        StepOutcome::Refused(message) => assert!(message.contains("data.width"), "{message}"),
+        other => panic!("1×1 image: expected a refusal, got {other:?}"),
+    }
 }

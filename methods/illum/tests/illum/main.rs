@@ -11,6 +11,7 @@ mod extremes;
 mod human;
 mod light_volume;
 mod lighting;
+mod needs;
 mod onnx;
 mod render;
 mod sampling;

@@ -3,6 +3,7 @@
 //! drive-nlf commands.
 
 mod cli;
+mod extremes;
 mod loss;
 mod network;
 mod onnx;

@@ -169,6 +169,16 @@ pub struct EvalFrame {
     pub normals: Vec<[f32; 3]>,
 }
 
+/// Where the acting video's cameras come from: what decides whether stage D refines them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CameraSource {
+    /// A calibrated rig or tracking system: exact up to noise far below a pixel.
+    Calibrated,
+    /// Registered by SfM into the scene scan's frame: off by a fraction of a degree and a
+    /// centimetre or so, which stage D corrects.
+    Estimated,
+}
+
 pub struct Prior4dCapture {
     pub scene_scan: Vec<SceneScanView>,
     /// Back-projected from the scan's true depth, scene units (the SfM points' stand-in).
@@ -180,6 +190,9 @@ pub struct Prior4dCapture {
     pub scan_prior: PoseSequence,
     pub scan_background: [f32; 3],
     pub acting: Vec<ActingFrame>,
+    /// Where `acting`'s cameras come from (the synthetic capture: estimated unless both of its
+    /// camera-noise knobs are 0).
+    pub acting_cameras: CameraSource,
     /// The acting video's body prior and truth in each frame's true camera frame (metres).
     pub acting_prior: PoseSequence,
     pub acting_truth: PoseSequence,
@@ -446,6 +459,13 @@ impl Prior4dDataConfig {
             scan_prior,
             scan_background,
             acting,
+            acting_cameras: if self.camera_rotation_noise_degrees == 0.0
+                && self.camera_translation_noise == 0.0
+            {
+                CameraSource::Calibrated
+            } else {
+                CameraSource::Estimated
+            },
             acting_prior,
             acting_truth,
             eval,

@@ -1,15 +1,20 @@
 //! Extremes (spec §8): σ → 0 and σ huge, feet far below the floor, a ground cloud with no
-//! plane in it — finite values or a clear error, never a panic or a NaN.
+//! plane in it — finite values or a clear error, never a panic or a NaN; and the whole
+//! pipeline into stage D under extreme captures, through the engine's shared check.
 
 use crate::{Rng, fresh_seed, values};
 use burn::tensor::{Device, Tensor};
+use splatzoo_prior_4d::Prior4d;
 use splatzoo_prior_4d::camera::{RigidFrame, splats_in_frame};
+use splatzoo_prior_4d::config::Prior4dConfig;
 use splatzoo_prior_4d::contact::{ContactConfig, contact_loss};
 use splatzoo_prior_4d::locate::place;
 use splatzoo_prior_4d::plane::{Plane, RansacConfig, ransac_plane};
 use splatzoo_prior_4d::render::{AvatarSplats, render_layers};
 use splatzoo_rasterizer::ColorMode;
 use splatzoo_rasterizer::testing::{SceneSpec, random_scene};
+use splatzoo_train::densify::Strategy;
+use splatzoo_train::harness::extremes::{StepOutcome, after_steps, assert_stable};
 
 /// The avatar placed at σ = e^s for s from −30 to +30 renders a finite image with finite
 /// gradients on s, and the contact loss stays finite (feet kilometres below or at the origin).
@@ -85,4 +90,47 @@ fn ransac_without_a_floor_does_not_panic() {
     bad[17][1] = f64::NAN;
     let err = ransac_plane(&bad, &RansacConfig::default()).unwrap_err();
     assert!(err.to_string().contains("17"), "{err}");
+}
+
+/// Two scene steps, two avatar steps and the first joint step (stage C's body fit, plane and
+/// σ₀ in between) of the tiny capture, with `change` applied.
+fn through_stage_d(what: &str, change: impl FnOnce(&mut Prior4dConfig)) -> StepOutcome {
+    let mut config = crate::trainer::tiny_config();
+    config.scene.steps = 2;
+    config.scene.densify.strategy = Strategy::None;
+    config.avatar.steps = 2;
+    config.iterations = 6;
+    change(&mut config);
+    assert_stable(what, after_steps::<Prior4d>(config, &Device::flex(), 5))
+}
+
+/// The whole pipeline into stage D at the extremes: a scene in units 1e-3 and 1e3 times the
+/// body's (σ* at both ends), the body-model fit off by about π on every joint, one acting
+/// frame, a 1×1 image, a zero-opacity avatar. Each is a finite step with finite state
+/// (cameras, poses, σ, offsets, optimiser moments) or a refusal by name.
+#[test]
+fn the_pipeline_reaches_stage_d_at_the_extremes_or_refuses_by_name() {
+    for scale in [1e-3, 1e3] {
+        let outcome = through_stage_d("σ* at the ends", |c| c.data.scene_scale = scale);
+        assert!(
+            matches!(outcome, StepOutcome::Finite { .. }),
+            "σ* = {scale}: {outcome:?}"
+        );
+    }
+    through_stage_d("body fit off by ~π", |c| {
+        c.data.noise.pose_bias = std::f64::consts::PI;
+        c.data.noise.pose_noise = std::f64::consts::PI;
+    });
+    through_stage_d("one acting frame", |c| c.data.acting_frames = 1);
+    let pixel = through_stage_d("1×1 image", |c| {
+        c.data.width = 1;
+        c.data.height = 1;
+    });
+    if let StepOutcome::Refused(message) = pixel {
+        assert!(message.contains("width"), "{message}");
+    }
+    let clear = through_stage_d("zero opacity", |c| c.avatar.node.initial_opacity = 0.0);
+    if let StepOutcome::Refused(message) = clear {
+        assert!(message.contains("initial_opacity"), "{message}");
+    }
 }

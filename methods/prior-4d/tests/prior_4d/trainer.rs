@@ -109,3 +109,61 @@ fn four_stages_run_with_finite_losses() {
         joint.init.sigma0
     );
 }
+
+/// Camera refinement is a data rule: on for the tiny capture's SfM-estimated acting cameras,
+/// off when both camera-noise knobs are 0 (a calibrated rig) — the per-frame corrections stay
+/// exactly zero through stage D — and `joint.camera_refinement` forces it either way. The
+/// decision is kept in the run's configuration and its module list.
+#[test]
+fn acting_cameras_are_refined_only_where_they_are_estimated() {
+    let device = Device::flex();
+    let short = |change: &dyn Fn(&mut Prior4dConfig)| {
+        let mut c = tiny_config();
+        c.scene.steps = 2;
+        c.scene.densify.strategy = splatzoo_train::densify::Strategy::None;
+        c.avatar.steps = 2;
+        c.iterations = 7;
+        change(&mut c);
+        Prior4d::new(c, &device).expect("a tiny run")
+    };
+    let choice = |m: &Prior4d| {
+        m.modules()
+            .into_iter()
+            .find(|c| c.module == "acting-camera refinement")
+            .expect("listed")
+    };
+    let estimated = short(&|_| {});
+    assert_eq!(estimated.config.joint.camera_refinement, Some(true));
+    let listed = choice(&estimated);
+    assert!(listed.enabled && listed.forced_by.is_none(), "{listed:?}");
+
+    let calibrated = |c: &mut Prior4dConfig| {
+        c.data.camera_rotation_noise_degrees = 0.0;
+        c.data.camera_translation_noise = 0.0;
+    };
+    let mut exact = short(&calibrated);
+    assert_eq!(exact.config.joint.camera_refinement, Some(false));
+    let listed = choice(&exact);
+    assert!(
+        !listed.enabled && listed.reason.contains("calibrated"),
+        "{listed:?}"
+    );
+    while exact.steps() < exact.config.iterations {
+        assert!(exact.step().expect("a step").loss.is_finite());
+    }
+    let joint = exact.joint.as_ref().expect("stage D ran");
+    assert!(host_f32(&joint.camera_rotation).iter().all(|v| *v == 0.0));
+    assert!(
+        host_f32(&joint.camera_translation)
+            .iter()
+            .all(|v| *v == 0.0)
+    );
+
+    let forced = short(&|c| {
+        calibrated(c);
+        c.joint.camera_refinement = Some(true);
+    });
+    let listed = choice(&forced);
+    assert!(listed.enabled, "{listed:?}");
+    assert_eq!(listed.forced_by.as_deref(), Some("joint.camera_refinement"));
+}
