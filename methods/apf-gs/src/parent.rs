@@ -11,6 +11,8 @@
 //! a person's box can hold another person's bag or a mask's edge can catch the street behind,
 //! and one such frame would otherwise decide. The returns carried into the chosen joint's
 //! frame, within `INLIER_RADIUS` of their median, are the accessory's initial Gaussians.
+//! An accessory node forced on (`decouple.accessories = true`) for a person whose mask has too
+//! few returns to decide starts on the pelvis from [`fallback_points`].
 
 use crate::data::{ApfCapture, TrackedPerson};
 use splatzoo_datasets::posing::PosedFrame;
@@ -160,6 +162,28 @@ pub fn initial_points(
     InitPoints {
         sigmas: nearest_neighbour_scales(&positions, 3),
         colours: all.iter().map(|(_, c)| *c).collect(),
+        positions,
+    }
+}
+
+/// The pelvis (the fallback parent).
+pub const PELVIS: usize = 0;
+
+/// Where a forced accessory node starts when the LiDAR cannot place it: `keep` grey points
+/// spread uniformly in a ball of 0.15 m around the pelvis, in its frame.
+pub fn fallback_points(keep: usize, seed: u64) -> InitPoints {
+    const RADIUS: f64 = 0.15;
+    let mut rng = Rng(seed);
+    let mut positions = Vec::with_capacity(keep);
+    while positions.len() < keep {
+        let p = [0; 3].map(|_: i32| rng.range(-RADIUS, RADIUS));
+        if p.iter().map(|v| v * v).sum::<f64>() <= RADIUS * RADIUS {
+            positions.push(p.map(|v| v as f32));
+        }
+    }
+    InitPoints {
+        sigmas: nearest_neighbour_scales(&positions, 3),
+        colours: vec![[0.5; 3]; positions.len()],
         positions,
     }
 }

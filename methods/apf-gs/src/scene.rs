@@ -11,7 +11,7 @@ use crate::decouple::wants_accessory;
 use crate::error::ApfError;
 use crate::loss::{PersonTerms, limit_loss, relative_bone_loss};
 use crate::networks::{ApfNetworks, Embeddings};
-use crate::parent::{accessory_returns, initial_points, select_parent};
+use crate::parent::{PELVIS, accessory_returns, fallback_points, initial_points, select_parent};
 use crate::residual::{GatedResidual, bounding_box};
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::body::BodyModel;
@@ -143,25 +143,38 @@ impl ApfScene {
                 continue;
             }
             let returns = accessory_returns(capture, h);
-            let Some((joint, spreads)) = select_parent(person, &returns) else {
-                modules.push(ModuleChoice {
-                    enabled: false,
-                    reason: format!(
-                        "{}; but too few LiDAR returns on its mask to place it",
-                        choice.reason
-                    ),
-                    ..choice
-                });
-                continue;
+            let point_seed = config.seed ^ (0xACC0_0000 + h as u64);
+            let keep = config.attach.initial_gaussians;
+            let (joint, spreads, points) = match select_parent(person, &returns) {
+                Some((joint, spreads)) => {
+                    let points = initial_points(person, &returns, joint, keep, point_seed);
+                    modules.push(choice);
+                    (joint, spreads, points)
+                }
+                // Forced on: it starts on the pelvis all the same.
+                None if choice.forced_by.is_some() => {
+                    modules.push(ModuleChoice {
+                        reason: format!(
+                            "{}; too few LiDAR returns on its mask to place it: it starts on \
+                             the pelvis",
+                            choice.reason
+                        ),
+                        ..choice
+                    });
+                    (PELVIS, Vec::new(), fallback_points(keep, point_seed))
+                }
+                None => {
+                    modules.push(ModuleChoice {
+                        enabled: false,
+                        reason: format!(
+                            "{}; but too few LiDAR returns on its mask to place it",
+                            choice.reason
+                        ),
+                        ..choice
+                    });
+                    continue;
+                }
             };
-            modules.push(choice);
-            let points = initial_points(
-                person,
-                &returns,
-                joint,
-                config.attach.initial_gaussians,
-                config.seed ^ (0xACC0_0000 + h as u64),
-            );
             let set = GaussianSet::from_points(
                 &points.positions,
                 &points.colours,
@@ -180,7 +193,7 @@ impl ApfScene {
             );
             node.detach_parent = config.attach.detach_parent;
             decisions.push(format!(
-                "{}: accessory node on joint {joint} ({why}; {} LiDAR returns; parent spread {})",
+                "{}: accessory node on joint {joint} ({why}; {} initial points; parent spread {})",
                 person.name,
                 points.len(),
                 spreads

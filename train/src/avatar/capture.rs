@@ -226,6 +226,8 @@ pub fn load(
         novel_pose,
         prior: person.sequence,
         truth,
+        // A track on disk is a tracker's estimate (a synthetic export's prior is perturbed).
+        track_is_truth: false,
         trained,
         fps: 30.0,
         decisions,

@@ -123,6 +123,9 @@ pub struct AvatarCapture {
     pub prior: PoseSequence,
     /// The true motion, for pose error only (synthetic captures).
     pub truth: Option<PoseSequence>,
+    /// Whether `prior` is the true motion itself (a synthetic capture without tracker noise),
+    /// which pose refinement would have nothing to correct in ([`super::refinement`]).
+    pub track_is_truth: bool,
     /// Per frame: whether it has training images.
     pub trained: Vec<bool>,
     pub fps: f64,
@@ -253,6 +256,7 @@ impl AvatarDataConfig {
             novel_pose,
             prior: person.prior.clone(),
             truth: Some(person.motion.clone()),
+            track_is_truth: self.noise == PriorNoise::none(),
             trained,
             fps: scene.fps,
             decisions: vec![

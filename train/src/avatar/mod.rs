@@ -14,6 +14,7 @@
 pub mod capture;
 pub mod data;
 mod eval;
+pub mod refinement;
 pub mod scenery;
 mod trainer;
 
@@ -58,6 +59,10 @@ pub struct AvatarConfig {
     /// A static background node beside the avatar: absent, where the capture has sparse
     /// points of its surroundings; `true`/`false` force it.
     pub scenery: Option<bool>,
+    /// Per-frame pose refinement: absent, wherever the body track is an estimate (not where
+    /// it is the true motion, [`refinement`]); `true`/`false` force it. The run keeps the
+    /// decision here.
+    pub pose_refinement: Option<bool>,
     /// Weight of the composite (human + background, whole image) loss when there is one.
     pub scenery_weight: f64,
     /// The background node's density control.
@@ -86,6 +91,7 @@ impl Default for AvatarConfig {
             sh_degree_every: 500,
             background: [0.0; 3],
             scenery: None,
+            pose_refinement: None,
             scenery_weight: 1.0,
             scenery_densify: DensifyConfig::default(),
             data: AvatarDataConfig::default(),

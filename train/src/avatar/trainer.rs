@@ -7,6 +7,7 @@ use super::data::{AvatarCapture, AvatarView};
 use super::eval::{
     HUMAN_REGION, ViewScores, accumulate_colours, mpjpe_mm, score_views, track_joints,
 };
+use super::refinement;
 use super::scenery::{SCENERY, build_node, decide};
 use crate::checkpoint::Checkpoint;
 use crate::error::TrainError;
@@ -39,7 +40,8 @@ pub struct AvatarArgs {
     /// Shorthand for `--set data.frames=N`.
     #[arg(long)]
     pub frames: Option<usize>,
-    /// Train with the prior's poses as they are (the ablation arm).
+    /// Train with the prior's poses as they are (the ablation arm; `--set
+    /// pose_refinement=false`).
     #[arg(long)]
     pub no_pose_refinement: bool,
     /// The synthetic capture: `monocular` (default) or `multiview` (shorthand for
@@ -62,6 +64,8 @@ pub struct AvatarTrainer {
     pub scenery: Option<GaussianNode>,
     /// Why it has one or not.
     pub scenery_choice: ModuleChoice,
+    /// Whether the body track is refined, and why ([`super::refinement`]).
+    pub refinement_choice: ModuleChoice,
     model: BodyModel,
     pub step: usize,
     /// Orders the training frames.
@@ -239,6 +243,8 @@ impl AvatarTrainer {
             Some(_) => super::capture::load(&config.data, &model, device)?,
             None => config.data.build(device),
         };
+        let refinement_choice = refinement::decide(&config, &capture);
+        let config = refinement::apply(config, &refinement_choice);
         let node = SkinnedGaussianNode::new(
             HUMAN,
             &model,
@@ -265,6 +271,7 @@ impl AvatarTrainer {
             node,
             scenery,
             scenery_choice,
+            refinement_choice,
             model,
             step: 0,
             background,
@@ -297,9 +304,7 @@ impl Method for AvatarTrainer {
             ));
         }
         if args.no_pose_refinement {
-            sets.push("node.refine_rotations=false".into());
-            sets.push("node.refine_translation=false".into());
-            sets.push("node.refine_shape=false".into());
+            sets.push("pose_refinement=false".into());
         }
         sets
     }
@@ -344,7 +349,7 @@ impl Method for AvatarTrainer {
     }
 
     fn modules(&self) -> Vec<ModuleChoice> {
-        vec![self.scenery_choice.clone()]
+        vec![self.scenery_choice.clone(), self.refinement_choice.clone()]
     }
 
     fn baselines(&self, lpips: Option<&Lpips>) -> Result<Vec<(String, Scores)>, TrainError> {

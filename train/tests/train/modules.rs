@@ -1,6 +1,7 @@
 //! What a scene gets: the static trainer's view-dependent colour is limited to what its
 //! training views support (a few-view scene gets SH degree 0 unless forced), `data.train_views`
-//! keeps a few views and initialises from them alone, and the decisions are reported.
+//! keeps a few views and initialises from them alone, and the decisions are reported; the
+//! avatar refines its body track only where the track is an estimate.
 
 use burn::tensor::Device;
 use splatzoo_train::harness::Method;
@@ -96,4 +97,63 @@ fn a_few_view_scene_gets_no_view_dependent_colour_unless_forced() {
         .expect("refused")
         .to_string();
     assert!(error.contains("data.train_views"), "{error}");
+}
+
+fn small_avatar(
+    noise: splatzoo_datasets::synth::prior::PriorNoise,
+    forced: Option<bool>,
+) -> splatzoo_train::avatar::AvatarConfig {
+    let mut c = splatzoo_train::avatar::AvatarConfig {
+        iterations: 4,
+        pose_refinement: forced,
+        ..Default::default()
+    };
+    c.data.width = 40;
+    c.data.height = 30;
+    c.data.frames = 5;
+    c.data.noise = noise;
+    c.node.per_face = 1;
+    c.densify.strategy = splatzoo_train::densify::Strategy::None;
+    c
+}
+
+/// Pose refinement is a data rule: the synthetic tracker's noisy track is refined; a track
+/// that is the true motion is kept as given (its deltas never move through training steps);
+/// `pose_refinement = true` forces it back on (and the deltas move).
+#[test]
+fn only_an_estimated_body_track_is_refined_unless_forced() {
+    use splatzoo_datasets::synth::prior::PriorNoise;
+    use splatzoo_train::avatar::AvatarTrainer;
+    use splatzoo_train::host_f32;
+    let device = Device::flex();
+    let refinement = |t: &AvatarTrainer| t.modules().remove(1);
+    let deltas = |t: &AvatarTrainer| {
+        let mut all = host_f32(&t.node.poses.deltas);
+        all.extend(host_f32(&t.node.poses.translation_deltas));
+        all
+    };
+    let noisy = AvatarTrainer::new(small_avatar(PriorNoise::default(), None), &device).unwrap();
+    let chosen = refinement(&noisy);
+    assert!(chosen.enabled && chosen.forced_by.is_none(), "{chosen:?}");
+    assert!(chosen.reason.contains("estimate"), "{chosen:?}");
+    assert_eq!(noisy.config.pose_refinement, Some(true));
+
+    for (forced, moves) in [(None, false), (Some(true), true)] {
+        let mut exact =
+            AvatarTrainer::new(small_avatar(PriorNoise::none(), forced), &device).unwrap();
+        let chosen = refinement(&exact);
+        assert_eq!(chosen.enabled, moves, "{chosen:?}");
+        assert_eq!(chosen.forced_by.is_some(), forced.is_some(), "{chosen:?}");
+        assert_eq!(exact.config.node.refine_rotations, moves);
+        let before = deltas(&exact);
+        while exact.step < 4 {
+            assert!(exact.step().unwrap().loss.is_finite());
+        }
+        assert_eq!(
+            deltas(&exact) != before,
+            moves,
+            "forced {forced:?}: the deltas should {}move",
+            if moves { "" } else { "not " }
+        );
+    }
 }

@@ -47,23 +47,40 @@ fn trainer(config: ApfConfig) -> ApfTrainer {
     ApfTrainer::new(config, &Device::flex()).expect("the small scene builds")
 }
 
+/// `decouple.accessories` forces every person's accessory node either way: off, none is
+/// built; on, every tracked person gets one — on the small scene even those whose masks carry
+/// too few LiDAR returns to place it (they start on the pelvis) — and each step runs.
 #[test]
-fn accessory_nodes_can_be_forced_off() {
-    let mut config = small();
-    config.decouple.accessories = Some(false);
-    let t = trainer(config);
-    assert!(t.scene.accessories.is_empty());
-    let modules = t.modules();
-    let accessory: Vec<_> = modules
-        .iter()
-        .filter(|m| m.module.starts_with("accessory node"))
-        .collect();
-    assert_eq!(accessory.len(), t.scene.humans.len(), "{modules:?}");
-    for m in accessory {
-        assert!(
-            !m.enabled && m.forced_by.as_deref() == Some("decouple.accessories"),
-            "{m:?}"
-        );
+fn accessory_nodes_can_be_forced_either_way() {
+    for forced in [false, true] {
+        let mut config = small();
+        config.decouple.accessories = Some(forced);
+        let mut t = trainer(config);
+        let built = if forced { t.scene.humans.len() } else { 0 };
+        assert_eq!(t.scene.accessories.len(), built);
+        let modules = t.modules();
+        let accessory: Vec<_> = modules
+            .iter()
+            .filter(|m| m.module.starts_with("accessory node"))
+            .collect();
+        assert_eq!(accessory.len(), t.scene.humans.len(), "{modules:?}");
+        for m in accessory {
+            assert!(
+                m.enabled == forced && m.forced_by.as_deref() == Some("decouple.accessories"),
+                "{m:?}"
+            );
+        }
+        if forced {
+            assert!(
+                modules
+                    .iter()
+                    .any(|m| m.reason.contains("starts on the pelvis")),
+                "the small scene has a person the LiDAR cannot place an accessory for: {modules:?}"
+            );
+            while t.step < 4 {
+                assert!(t.step().unwrap().loss.is_finite());
+            }
+        }
     }
 }
 
