@@ -193,14 +193,18 @@ impl ApfScene {
             );
             node.detach_parent = config.attach.detach_parent;
             decisions.push(format!(
-                "{}: accessory node on joint {joint} ({why}; {} initial points; parent spread {})",
+                "{}: accessory node on joint {joint} ({why}; {} initial points; {})",
                 person.name,
                 points.len(),
-                spreads
-                    .iter()
-                    .map(|(k, s)| format!("{k}: {:.0} mm", 1e3 * s))
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                if spreads.is_empty() {
+                    "forced: the pelvis, no returns to choose a parent by".to_owned()
+                } else {
+                    let spreads: Vec<String> = spreads
+                        .iter()
+                        .map(|(k, s)| format!("{k}: {:.0} mm", 1e3 * s))
+                        .collect();
+                    format!("parent spread {}", spreads.join(", "))
+                }
             ));
             let index = accessories.len();
             accessories.push(Accessory {
