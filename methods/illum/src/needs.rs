@@ -74,7 +74,9 @@ impl CastShadow {
     }
 }
 
-/// Pixels on the person or one of its 8 neighbours (`person` is `[h, w]` row-major).
+/// Pixels on the person or one of its 8 neighbours (`person` is `[h, w]` row-major). Not
+/// `splatzoo_datasets::masks::Mask::dilate`: its radius-1 disk is the 5-pixel cross, which
+/// leaves the diagonal neighbours anti-aliasing also blends into.
 fn beside_person(person: &[bool], w: usize, h: usize) -> Vec<bool> {
     assert_eq!(person.len(), w * h, "the person mask is [h, w]");
     let mut near = vec![false; w * h];

@@ -98,7 +98,8 @@ fn training_is_the_same_in_millimetres_and_kilometres() {
     }
 }
 
-fn small_avatar() -> splatzoo_train::avatar::AvatarConfig {
+/// A 40×30, 5-frame avatar run of 4 steps, one Gaussian a face, no density control.
+pub fn small_avatar() -> splatzoo_train::avatar::AvatarConfig {
     let mut c = splatzoo_train::avatar::AvatarConfig {
         iterations: 4,
         ..Default::default()

@@ -103,17 +103,9 @@ fn small_avatar(
     noise: splatzoo_datasets::synth::prior::PriorNoise,
     forced: Option<bool>,
 ) -> splatzoo_train::avatar::AvatarConfig {
-    let mut c = splatzoo_train::avatar::AvatarConfig {
-        iterations: 4,
-        pose_refinement: forced,
-        ..Default::default()
-    };
-    c.data.width = 40;
-    c.data.height = 30;
-    c.data.frames = 5;
+    let mut c = crate::extremes::small_avatar();
     c.data.noise = noise;
-    c.node.per_face = 1;
-    c.densify.strategy = splatzoo_train::densify::Strategy::None;
+    c.pose_refinement = forced;
     c
 }
 

@@ -13,7 +13,6 @@ use splatzoo_prior_4d::plane::{Plane, RansacConfig, ransac_plane};
 use splatzoo_prior_4d::render::{AvatarSplats, render_layers};
 use splatzoo_rasterizer::ColorMode;
 use splatzoo_rasterizer::testing::{SceneSpec, random_scene};
-use splatzoo_train::densify::Strategy;
 use splatzoo_train::harness::extremes::{StepOutcome, after_steps, assert_stable};
 
 /// The avatar placed at σ = e^s for s from −30 to +30 renders a finite image with finite
@@ -95,11 +94,7 @@ fn ransac_without_a_floor_does_not_panic() {
 /// Two scene steps, two avatar steps and the first joint step (stage C's body fit, plane and
 /// σ₀ in between) of the tiny capture, with `change` applied.
 fn through_stage_d(what: &str, change: impl FnOnce(&mut Prior4dConfig)) -> StepOutcome {
-    let mut config = crate::trainer::tiny_config();
-    config.scene.steps = 2;
-    config.scene.densify.strategy = Strategy::None;
-    config.avatar.steps = 2;
-    config.iterations = 6;
+    let mut config = crate::trainer::into_stage_d(6);
     change(&mut config);
     assert_stable(what, after_steps::<Prior4d>(config, &Device::flex(), 5))
 }

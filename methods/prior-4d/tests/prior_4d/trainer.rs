@@ -29,6 +29,17 @@ pub fn tiny_config() -> Prior4dConfig {
     c
 }
 
+/// [`tiny_config`] cut to two scene steps (no density control), two avatar steps, then stage
+/// C and stage D to `iterations`.
+pub fn into_stage_d(iterations: usize) -> Prior4dConfig {
+    let mut c = tiny_config();
+    c.scene.steps = 2;
+    c.scene.densify.strategy = splatzoo_train::densify::Strategy::None;
+    c.avatar.steps = 2;
+    c.iterations = iterations;
+    c
+}
+
 fn finite(name: &str, values: &[f32]) {
     if let Some(k) = values.iter().position(|v| !v.is_finite()) {
         panic!("{name}[{k}] = {}", values[k]);
@@ -118,11 +129,7 @@ fn four_stages_run_with_finite_losses() {
 fn acting_cameras_are_refined_only_where_they_are_estimated() {
     let device = Device::flex();
     let short = |change: &dyn Fn(&mut Prior4dConfig)| {
-        let mut c = tiny_config();
-        c.scene.steps = 2;
-        c.scene.densify.strategy = splatzoo_train::densify::Strategy::None;
-        c.avatar.steps = 2;
-        c.iterations = 7;
+        let mut c = into_stage_d(7);
         change(&mut c);
         Prior4d::new(c, &device).expect("a tiny run")
     };
