@@ -29,6 +29,8 @@
 //!   in the OpenCV frame of camera `selected_cam_idx[t]`, so `world_from_smpl` carries that
 //!   camera's camera-to-world rotation; drivestudio puts the root at the person's box centre
 //!   ([`BodyFrame::root_position`]).
+//! - `lidar/{t:03}.bin`: the LiDAR returns of frame t, read apart from the dataset by
+//!   [`lidar`] (a method that wants depth asks for them).
 
 use super::{
     BodyFrame, Dataset, Distortion, Format, InstanceBox, MaskConvention, PoseTrack, Similarity,
@@ -107,7 +109,8 @@ fn json(path: &Path) -> Result<serde_json::Value, DatasetError> {
     serde_json::from_str(&text).map_err(|e| DatasetError::file(path, format!("not JSON ({e})")))
 }
 
-pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
+/// The frame numbers on disk (sorted) and each frame's ego → Waymo-global pose.
+fn ego_poses(root: &Path) -> Result<(Vec<usize>, Vec<Matrix>), DatasetError> {
     let ego_dir = root.join("ego_pose");
     let mut frame_numbers: Vec<usize> = std::fs::read_dir(&ego_dir)
         .map_err(|e| DatasetError::file(&ego_dir, format!("cannot list ({e})")))?
@@ -125,6 +128,64 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         .iter()
         .map(|t| matrix_file(&ego_dir.join(format!("{t:03}.txt"))))
         .collect::<Result<_, _>>()?;
+    Ok((frame_numbers, ego))
+}
+
+/// Values per LiDAR return in `lidar/{t:03}.bin` (float32): origin (3), point (3), flow (3),
+/// flow class, ground label, intensity, elongation, laser id.
+const LIDAR_VALUES: usize = 14;
+
+/// Each frame's LiDAR returns in the re-centred world (metres), from drivestudio's
+/// `lidar/{t:03}.bin` (the `N × 14` float32 rows its preprocessing writes, points in the ego
+/// frame of that timestep: `world = E₀⁻¹ · E_t · p`); `None` for a frame without a file. Every
+/// return of every laser is kept (drivestudio's `only_use_top_lidar` is off by default).
+pub fn lidar(root: &Path) -> Result<Vec<Option<Vec<[f64; 3]>>>, DatasetError> {
+    let (frame_numbers, ego) = ego_poses(root)?;
+    let recentre = rigid_inverse(&ego[0]);
+    frame_numbers
+        .iter()
+        .zip(&ego)
+        .map(|(t, e)| {
+            let path = root.join(format!("lidar/{t:03}.bin"));
+            if !path.is_file() {
+                return Ok(None);
+            }
+            let bytes = std::fs::read(&path)
+                .map_err(|e| DatasetError::file(&path, format!("cannot read ({e})")))?;
+            let row = 4 * LIDAR_VALUES;
+            if bytes.len() % row != 0 {
+                return Err(DatasetError::file(
+                    &path,
+                    format!(
+                        "{} bytes, expected float32 rows of {LIDAR_VALUES} values ({row} bytes each)",
+                        bytes.len()
+                    ),
+                ));
+            }
+            let to_world = multiply(&recentre, e);
+            let mut points = Vec::with_capacity(bytes.len() / row);
+            for (k, r) in bytes.chunks_exact(row).enumerate() {
+                let value =
+                    |i: usize| f32::from_le_bytes(r[4 * i..4 * i + 4].try_into().expect("4 bytes"));
+                let p = [value(3) as f64, value(4) as f64, value(5) as f64];
+                if !p.iter().all(|v| v.is_finite()) {
+                    return Err(DatasetError::field(
+                        &path,
+                        &format!("row {k}"),
+                        "a non-finite point (values 3..6)",
+                    ));
+                }
+                points.push(std::array::from_fn(|i| {
+                    (0..3).map(|j| to_world[i][j] * p[j]).sum::<f64>() + to_world[i][3]
+                }));
+            }
+            Ok(Some(points))
+        })
+        .collect()
+}
+
+pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
+    let (frame_numbers, ego) = ego_poses(root)?;
     let recentre = rigid_inverse(&ego[0]);
     let mut cameras = Vec::new();
     for cam in 0..5 {

@@ -13,6 +13,10 @@
 //! - the sparse LiDAR-like depth of the training views (background and accessory
 //!   initialisation, parent selection) and each tracked person's crops for the image encoder.
 //!
+//! A drivestudio processed-Waymo scene on disk (`data.path`) becomes the same [`ApfCapture`]
+//! in [`crate::drivestudio`], through the per-view helpers here (`people_masks`,
+//! `add_crops`).
+//!
 //! The split is drivestudio's: every `test_every`-th timestep (`t ≡ −1 mod test_every`: 14,
 //! 29, 44, 59) is held out from training in every camera. Held-out images are only read to
 //! score.
@@ -71,8 +75,24 @@ pub struct ApfDataConfig {
     pub lidar_noise: f64,
     /// Most background points kept from the LiDAR.
     pub background_points: usize,
-    /// A drivestudio processed-Waymo scene instead of the synthetic preset (not read yet).
+    /// A drivestudio processed-Waymo scene instead of the synthetic preset (`--data`;
+    /// [`crate::drivestudio`]). Then the preset's keys (`width`, `height`, `frames`,
+    /// `supersample`, `noise`, `corruption`, `coarse`, `lidar_*`) do not apply and the keys
+    /// below do.
     pub path: Option<PathBuf>,
+    /// On disk: the Waymo cameras trained on, by drivestudio's ids (0 FRONT, 1 FRONT_LEFT,
+    /// 2 FRONT_RIGHT, 3 SIDE_LEFT, 4 SIDE_RIGHT); drivestudio's default is the three front ones.
+    pub cameras: Vec<usize>,
+    /// On disk: images (and masks) box-filtered by this factor (Waymo's 1920×1280 → 480×320 at 4).
+    pub downscale: u32,
+    /// On disk: the frames `[start_frame, end_frame)` of the scene (to its end without
+    /// `end_frame`), as drivestudio's `start_timestep`/`end_timestep`.
+    pub start_frame: usize,
+    pub end_frame: Option<usize>,
+    /// On disk: a pedestrian's track gets a human node when the person is present (a valid
+    /// body fit and a box) in at least this many training frames; shorter tracks stay in the
+    /// background.
+    pub min_track_frames: usize,
 }
 
 impl Default for ApfDataConfig {
@@ -92,6 +112,11 @@ impl Default for ApfDataConfig {
             lidar_noise: 0.02,
             background_points: 40_000,
             path: None,
+            cameras: vec![0, 1, 2],
+            downscale: 4,
+            start_frame: 0,
+            end_frame: None,
+            min_track_frames: 3,
         }
     }
 }
@@ -113,6 +138,21 @@ impl ApfDataConfig {
         }
         if self.width < 16 || self.height < 16 {
             return Err("data.width and data.height ≥ 16".into());
+        }
+        if self.downscale == 0 || self.min_track_frames == 0 {
+            return Err("data.downscale ≥ 1 and data.min_track_frames ≥ 1".into());
+        }
+        if self.cameras.is_empty() || self.cameras.iter().any(|&c| c > 4) {
+            return Err(format!(
+                "data.cameras: one or more of drivestudio's Waymo camera ids 0–4, got {:?}",
+                self.cameras
+            ));
+        }
+        if self.end_frame.is_some_and(|end| end <= self.start_frame) {
+            return Err(format!(
+                "data.end_frame ({:?}) > data.start_frame ({})",
+                self.end_frame, self.start_frame
+            ));
         }
         Ok(())
     }
@@ -152,6 +192,9 @@ pub struct TrackedPerson {
     pub corrupted: Vec<bool>,
     /// The prior posed at every frame (Eq. 3's `M_kine`, parent selection).
     pub prior_frames: Vec<PosedFrame>,
+    /// Whether the person is in the scene at frame `t` (a driving scene's pedestrians come and
+    /// go: their node is hidden where their track or box is missing).
+    pub present: Vec<bool>,
     /// The person's world box at every frame (a driving dataset's annotated 3-D box; on
     /// synthetic data the true body and accessories grown by 5 cm).
     pub boxes: Vec<Option<[[f32; 3]; 2]>>,
@@ -209,6 +252,52 @@ fn crop(
         .reshape([1, 3, ch, cw])
 }
 
+/// Eq. 3's masks of every tracked person in one view: the coarse mask split by each person's
+/// projected box (`None`: not in the scene at this frame), `M_kine` from the prior meshes
+/// z-buffered across people.
+pub(crate) fn people_masks(
+    decouple: &DecoupleConfig,
+    coarse: &Mask,
+    camera: &Camera,
+    boxes: &[Option<[[f32; 3]; 2]>],
+    prior_meshes: &[&[[f32; 3]]],
+    faces: &[[u32; 3]],
+) -> Vec<PersonMasks> {
+    let (w, h) = (coarse.width, coarse.height);
+    let box_masks: Vec<Mask> = boxes
+        .iter()
+        .map(|b| b.map_or_else(|| Mask::empty(w, h), |b| box_mask(camera, &b)))
+        .collect();
+    let owner = prior_owner(prior_meshes, faces, camera);
+    decouple_view(decouple, coarse, &box_masks, &owner)
+}
+
+/// Adds each visible person's crop of one training view at frame `t` to `crops[person][t]`
+/// (people covering fewer than 16 pixels give none).
+pub(crate) fn add_crops(
+    crops: &mut [Vec<Option<Tensor<4>>>],
+    t: usize,
+    people: &[PersonMasks],
+    srgb: &[f32],
+    [w, h]: [usize; 2],
+    crop_size: [usize; 2],
+    device: &Device,
+) {
+    for (p, masks) in people.iter().enumerate() {
+        let Some(rect) = masks.coarse.bounding_box() else {
+            continue;
+        };
+        if masks.coarse.area() < 16 {
+            continue;
+        }
+        let c = crop(srgb, w, h, rect, crop_size, device);
+        crops[p][t] = Some(match crops[p][t].take() {
+            Some(prev) => Tensor::cat(vec![prev, c], 0),
+            None => c,
+        });
+    }
+}
+
 /// Per-pixel owner among the tracked people's prior meshes at one frame, from `camera`.
 fn prior_owner(meshes: &[&[[f32; 3]]], faces: &[[u32; 3]], camera: &Camera) -> Vec<Option<usize>> {
     let instances: Vec<MeshInstance> = meshes
@@ -240,7 +329,8 @@ fn prior_owner(meshes: &[&[[f32; 3]]], faces: &[[u32; 3]], camera: &Camera) -> V
 }
 
 impl ApfDataConfig {
-    /// Builds and renders the synthetic capture, with Eq. 3's masks for `decouple`.
+    /// Builds and renders the synthetic capture (or reads the scene at `path`), with Eq. 3's
+    /// masks for `decouple`.
     pub fn build(
         &self,
         decouple: &DecoupleConfig,
@@ -248,11 +338,7 @@ impl ApfDataConfig {
         device: &Device,
     ) -> Result<ApfCapture, ApfError> {
         if let Some(path) = &self.path {
-            return Err(ApfError::input(
-                path.display().to_string(),
-                "driving captures on disk (drivestudio's processed Waymo) do not feed train-apf yet; \
-                 run without data.path for the synthetic driving preset",
-            ));
+            return self.build_from_disk(path, decouple, crop_size, device);
         }
         let mut scene_config = SceneConfig {
             width: self.width,
@@ -313,12 +399,8 @@ impl ApfDataConfig {
                         }
                         CoarseMask::Boxes => Mask::new(w, h, truth.coarse_mask_boxes()),
                     };
-                    let box_masks: Vec<Mask> = boxes
-                        .iter()
-                        .map(|b| b.map_or_else(|| Mask::empty(w, h), |b| box_mask(&camera, &b)))
-                        .collect();
-                    let owner = prior_owner(&prior_meshes, faces, &camera);
-                    let people = decouple_view(decouple, &coarse, &box_masks, &owner);
+                    let people =
+                        people_masks(decouple, &coarse, &camera, &boxes, &prior_meshes, faces);
                     (coarse, people)
                 })
                 .collect();
@@ -331,19 +413,7 @@ impl ApfDataConfig {
                     .collect();
                 let is_train = trained[t];
                 if is_train {
-                    for (p, masks) in people.iter().enumerate() {
-                        let Some(rect) = masks.coarse.bounding_box() else {
-                            continue;
-                        };
-                        if masks.coarse.area() < 16 {
-                            continue;
-                        }
-                        let c = crop(&srgb, w, h, rect, crop_size, device);
-                        crops[p][t] = Some(match crops[p][t].take() {
-                            Some(prev) => Tensor::cat(vec![prev, c], 0),
-                            None => c,
-                        });
-                    }
+                    add_crops(&mut crops, t, &people, &srgb, [w, h], crop_size, device);
                 }
                 let lidar = is_train.then(|| {
                     truth.lidar_depth(
@@ -397,6 +467,7 @@ impl ApfDataConfig {
                     .collect();
                 TrackedPerson {
                     name: format!("pedestrian_{k}"),
+                    present: vec![true; frames],
                     prior: person.prior.clone(),
                     truth: Some(person.motion.clone()),
                     injected,
@@ -456,7 +527,7 @@ impl ApfDataConfig {
 
     /// LiDAR returns of the training views outside every tracked person's box, colour from the
     /// image, thinned to `background_points`.
-    fn background_points_from(&self, views: &[ApfView], train: &[usize]) -> InitPoints {
+    pub(crate) fn background_points_from(&self, views: &[ApfView], train: &[usize]) -> InitPoints {
         let mut points = InitPoints::default();
         for &i in train {
             let view = &views[i];

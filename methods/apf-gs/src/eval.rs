@@ -33,13 +33,18 @@ pub struct SetScores {
     pub human_coarse: Scores,
     /// Over the coarse mask of the tracked pedestrians (`∪_h M_coarse^h`).
     pub human_coarse_tracked: Scores,
-    /// Over the tracked pedestrians' true body pixels and every true accessory pixel.
-    pub human_true: Scores,
-    pub accessory_true: Scores,
+    /// Over the tracked pedestrians' true body pixels and every true accessory pixel (absent
+    /// where the capture has no ground truth: data on disk).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub human_true: Option<Scores>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accessory_true: Option<Scores>,
     /// `Σ A_h` over true accessory pixels / their count (human nodes' alpha where an accessory is).
-    pub leakage: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub leakage: Option<f64>,
     /// IoU of `A_h > 0.5` with the true human mask (pooled over the images).
-    pub human_iou: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub human_iou: Option<f64>,
     pub images: usize,
 }
 
@@ -115,6 +120,8 @@ impl ApfTrainer {
             ScoreSum::default(),
         );
         let (mut leak, mut leak_n) = (0.0f64, 0.0f64);
+        // Whether any view has true human / accessory pixels (synthetic data only).
+        let mut truth = (false, false);
         let (mut inter, mut union) = (0usize, 0usize);
         for &i in indices {
             let view = &self.capture.views[i];
@@ -145,9 +152,11 @@ impl ApfTrainer {
             region(&mut tracked, &tracked_coarse);
             if let Some(m) = &view.true_human {
                 region(&mut human, m);
+                truth.0 |= m.area() > 0;
             }
             if let Some(m) = &view.true_accessory {
                 region(&mut accessory, m);
+                truth.1 |= m.area() > 0;
             }
             let alpha = host_f32(&human_alpha);
             if let Some(m) = &view.true_accessory {
@@ -170,14 +179,10 @@ impl ApfTrainer {
             full: full.mean(),
             human_coarse: coarse.mean(),
             human_coarse_tracked: tracked.mean(),
-            human_true: human.mean(),
-            accessory_true: accessory.mean(),
-            leakage: if leak_n > 0.0 { leak / leak_n } else { 0.0 },
-            human_iou: if union > 0 {
-                inter as f64 / union as f64
-            } else {
-                0.0
-            },
+            human_true: truth.0.then(|| human.mean()),
+            accessory_true: truth.1.then(|| accessory.mean()),
+            leakage: (leak_n > 0.0).then(|| leak / leak_n),
+            human_iou: (union > 0).then(|| inter as f64 / union as f64),
             images: indices.len(),
         })
     }

@@ -19,7 +19,8 @@
 //! | Eq. 8 | `T_acc(t) = T_parent(t) · ΔT_attach`, plus `D_ψ` | [`accessory::AccessoryNode`], [`accessory::attached`], [`networks::AccessoryField`]; parent selection [`parent::select_parent`] |
 //!
 //! The trainer is a [`splatzoo_train::harness::Method`] ([`trainer::ApfTrainer`],
-//! configuration [`config::ApfConfig`]); the synthetic driving capture is [`data`]; scores are
+//! configuration [`config::ApfConfig`]); the synthetic driving capture is [`data`], a
+//! drivestudio processed-Waymo scene on disk [`drivestudio`]; scores are
 //! [`eval`]; the ONNX export of `C`, `F_φ` and `D_ψ` is [`onnx`]. The crate's `README.md` lists every choice the paper leaves open, with its knob.
 
 pub mod accessory;
@@ -27,6 +28,7 @@ pub mod boxes;
 pub mod config;
 pub mod data;
 pub mod decouple;
+pub mod drivestudio;
 mod error;
 pub mod eval;
 pub mod gate;

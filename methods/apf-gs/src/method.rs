@@ -80,6 +80,10 @@ impl Method for ApfTrainer {
             sets.push("gate.mode=\"fixed\"".into());
             sets.push(format!("gate.value={v}"));
         }
+        if let Some(path) = &args.data {
+            let path = toml::Value::from(path.display().to_string());
+            sets.push(format!("data.path={path}"));
+        }
         sets
     }
 

@@ -42,6 +42,8 @@ pub struct Human {
     /// The canonical body's box for `γ(μ̄)`.
     pub centre: [f32; 3],
     pub half_extent: [f32; 3],
+    /// Whether the person is in the scene at each frame (hidden where not).
+    pub present: Vec<bool>,
 }
 
 pub struct Accessory {
@@ -117,6 +119,7 @@ impl ApfScene {
                 node,
                 centre,
                 half_extent,
+                present: person.present.clone(),
             });
         }
         let mut accessories = Vec::new();
@@ -346,8 +349,16 @@ impl ApfScene {
         };
         let mut outputs: Vec<(String, NodeOutput)> = Vec::new();
         let mut terms = Vec::new();
+        let present = |h: usize| {
+            let human: &Human = &self.humans[h];
+            human.present.get(input.frame).copied().unwrap_or(true)
+        };
         for (h, human) in self.humans.iter().enumerate() {
-            let guided = input.guided.get(h).and_then(|g| g.as_ref());
+            let guided = input
+                .guided
+                .get(h)
+                .and_then(|g| g.as_ref())
+                .filter(|_| present(h));
             let posed = pose_human(
                 &human.node,
                 human,
@@ -363,7 +374,7 @@ impl ApfScene {
             outputs.push((
                 human_name(h),
                 NodeOutput {
-                    splats: posed.splats,
+                    splats: hidden_unless(present(h), posed.splats),
                     joints: Some(posed.joints),
                     bounds: None,
                 },
@@ -378,11 +389,12 @@ impl ApfScene {
                 time_levels: config.network.time_levels,
                 duration: input.duration,
             });
-            let output = accessory.node.render_with(
+            let mut output = accessory.node.render_with(
                 &query,
                 &FrameContext { outputs: &outputs },
                 deformation.as_ref(),
             );
+            output.splats = hidden_unless(present(accessory.person), output.splats);
             outputs.push((accessory.node.name().to_owned(), output));
         }
         let accessories_end: usize = outputs.iter().map(|(_, o)| o.splats.len()).sum();
@@ -406,6 +418,23 @@ impl ApfScene {
             accessory_rows: humans_end..accessories_end,
             terms,
         }
+    }
+}
+
+/// Opacity logit of a hidden node's Gaussians: sigmoid(−30) ≈ 1e-13, under the rasterizer's
+/// 1/255 alpha cut-off, so they touch no pixel and take no gradient.
+const HIDDEN_LOGIT: f64 = -30.0;
+
+/// `splats` as they are where `visible`, else with every opacity below the alpha cut-off (a
+/// person out of the scene at this frame; the rows stay so every frame composes the same way).
+fn hidden_unless(visible: bool, splats: Splats) -> Splats {
+    if visible {
+        return splats;
+    }
+    // Through the logits (× 0), so the tensor stays on the step's tape like its neighbours.
+    Splats {
+        opacity_logits: splats.opacity_logits.clone() * 0.0 + HIDDEN_LOGIT,
+        ..splats
     }
 }
 

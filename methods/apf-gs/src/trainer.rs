@@ -32,6 +32,10 @@ pub struct ApfArgs {
     /// Fix σ (Table II: 1 is the strong prior, 0 the weak prior).
     #[arg(long)]
     pub fixed_sigma: Option<f64>,
+    /// A drivestudio processed-Waymo scene folder instead of the synthetic driving preset
+    /// (shorthand for `--set data.path=…`).
+    #[arg(long)]
+    pub data: Option<std::path::PathBuf>,
 }
 
 /// One Adam per network, each with its own learning rate.

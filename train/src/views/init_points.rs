@@ -120,6 +120,33 @@ pub fn back_project(
     }
 }
 
+/// A sparse depth map (camera z; NaN where no point lands) of world `points` seen by `camera`:
+/// each point in front of the camera (`near < z ≤ far`) marks the pixel its projection falls
+/// in (pixel centres at +0.5), the nearest point winning. The inverse of [`back_project`] for
+/// a LiDAR scan: its returns as the depth a view would have measured.
+pub fn sparse_depth(camera: &Camera, points: &[[f64; 3]]) -> Vec<f32> {
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let m = camera.world_to_camera.map(|row| row.map(f64::from));
+    let mut depth = vec![f32::NAN; w * h];
+    for p in points {
+        let c: [f64; 3] =
+            std::array::from_fn(|i| (0..3).map(|j| m[i][j] * p[j]).sum::<f64>() + m[i][3]);
+        if !(c[2] > camera.near as f64 && c[2] <= camera.far as f64) {
+            continue;
+        }
+        let u = camera.fx as f64 * c[0] / c[2] + camera.cx as f64;
+        let v = camera.fy as f64 * c[1] / c[2] + camera.cy as f64;
+        if !(u >= 0.0 && v >= 0.0 && u < w as f64 && v < h as f64) {
+            continue;
+        }
+        let at = &mut depth[v as usize * w + u as usize];
+        if at.is_nan() || (c[2] as f32) < *at {
+            *at = c[2] as f32;
+        }
+    }
+    depth
+}
+
 /// Uniform random points with random colours in the box spanned by the cameras and the points
 /// 1 m in front of each (3DGS's initialisation where no SfM points exist).
 pub fn random_points(cameras: &[Camera], count: usize, seed: u64) -> InitPoints {

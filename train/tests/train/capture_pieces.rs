@@ -1,6 +1,6 @@
 //! The pieces between a capture on disk and training: undistortion against an iterative
 //! inversion of the lens model, 3DGS's nearest-neighbour scales against brute force (with
-//! duplicates), the bounded image cache (evicts within its budget, decodes the same pixels
+//! duplicates), a LiDAR scan's sparse depth against back-projection, the bounded image cache (evicts within its budget, decodes the same pixels
 //! again), and a person track's world placement folded into SMPL's own parameters against
 //! posing the body and applying the placement.
 
@@ -14,7 +14,9 @@ use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
 use splatzoo_rasterizer::Camera;
 use splatzoo_train::host_f32;
 use splatzoo_train::views::image_store::FileImage;
-use splatzoo_train::views::init_points::nearest_neighbour_scales;
+use splatzoo_train::views::init_points::{
+    InitPoints, back_project, nearest_neighbour_scales, sparse_depth,
+};
 use splatzoo_train::views::people::{fold_placement, rest_root};
 use splatzoo_train::views::undistort::{distort_normalised, remap_bilinear, source_coordinates};
 use splatzoo_train::views::{ImageSource, ImageStore, MaskRole};
@@ -163,6 +165,42 @@ fn nearest_neighbour_scales_match_brute_force() {
     }
     assert_eq!(nearest_neighbour_scales(&points[..1], 3).len(), 1);
     assert!(nearest_neighbour_scales(&[], 3).is_empty());
+}
+
+#[test]
+fn sparse_depth_inverts_back_projection() {
+    let mut rng = Rng(11);
+    let cam = camera(23, 17);
+    let (w, h) = (23, 17);
+    // A depth map with holes, back-projected through pixel centres, then projected again.
+    let depth: Vec<f32> = (0..w * h)
+        .map(|_| {
+            if rng.range(0.0, 1.0) < 0.3 {
+                f32::NAN
+            } else {
+                rng.range(0.5, 30.0) as f32
+            }
+        })
+        .collect();
+    let mut points = InitPoints::default();
+    back_project(&cam, &depth, &vec![0.5; 3 * w * h], 1, &mut points);
+    let mut world: Vec<[f64; 3]> = points.positions.iter().map(|p| p.map(f64::from)).collect();
+    // Points behind the camera, beyond `far` and outside the image mark nothing; a farther
+    // point on a marked pixel loses to the nearer one.
+    world.push([0.0, 0.0, -3.0]);
+    world.push([0.0, 0.0, 200.0]);
+    world.push([1e3, 0.0, 5.0]);
+    let far_twin = world[0].map(|v| 2.0 * v);
+    world.push([far_twin[0], far_twin[1], far_twin[2] + 2.0]);
+    let got = sparse_depth(&cam, &world);
+    assert_eq!(got.len(), w * h);
+    for (p, (&g, &d)) in got.iter().zip(&depth).enumerate() {
+        if d.is_nan() {
+            assert!(g.is_nan(), "pixel {p}: {g} where no point was");
+        } else {
+            assert!((g - d).abs() <= 1e-4 * d, "pixel {p}: {g} against {d}");
+        }
+    }
 }
 
 #[test]

@@ -1,10 +1,11 @@
 //! APF-GS's integration tests, one binary: the gate and Eq. 4's algebra against scalar
 //! formulas, the networks' initial state, Eq. 3's per-instance decoupling, Eq. 8's attachment,
-//! and the trainer end to end on a tiny driving scene (gradients, scene decisions, leakage-free
-//! held-out frames, exact resume).
+//! the trainer end to end on a tiny driving scene (gradients, scene decisions, leakage-free
+//! held-out frames, exact resume), and a drivestudio scene on disk read and trained ([`disk`]).
 
 mod accessory;
 mod decouple;
+mod disk;
 mod extremes;
 mod gate;
 mod objective;
