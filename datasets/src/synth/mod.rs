@@ -5,7 +5,8 @@
 //!   motion ([`motion`]), accessories attached to joints ([`accessory`]), static surroundings
 //!   ([`environment`], built from [`mesh`] boxes and quads);
 //! - capture: camera rigs ([`rig`]), perturbed and corrupted body priors ([`prior`]), a LiDAR
-//!   stand-in and coarse-mask variants ([`sensors`]);
+//!   stand-in and coarse-mask variants ([`sensors`]), a 2-D keypoint detector stand-in
+//!   ([`keypoints`]);
 //! - assembly: a scene in memory and its per-view ground truth ([`scene`]), the presets each
 //!   method trains on ([`preset`]), and writing a scene to disk ([`export`]).
 
@@ -14,6 +15,7 @@ pub mod clothing;
 pub mod environment;
 pub mod export;
 pub mod identity;
+pub mod keypoints;
 pub mod mesh;
 pub mod motion;
 pub mod preset;

@@ -9,12 +9,12 @@ use crate::error::AagError;
 use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
 use splatzoo_datasets::openpose::PersonKeypoints;
+use splatzoo_datasets::synth::keypoints::{DetectorNoise, detect, pinhole};
 use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_datasets::synth::scene::posed_once;
 use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::fit::{
-    FitConfig, KeypointTarget, Observation, PinholeCamera, TORSO, body25_targets, fit_body,
-    foot_targets,
+    FitConfig, KeypointTarget, Observation, TORSO, body25_targets, fit_body, foot_targets,
 };
 use splatzoo_rasterizer::Camera;
 
@@ -42,16 +42,6 @@ pub fn portrait_camera(size: u32) -> Camera {
         size,
         size,
     )
-}
-
-fn pinhole(camera: &Camera) -> PinholeCamera {
-    PinholeCamera {
-        fx: f64::from(camera.fx),
-        fy: f64::from(camera.fy),
-        cx: f64::from(camera.cx),
-        cy: f64::from(camera.cy),
-        world_to_camera: camera.world_to_camera.map(|row| row.map(f64::from)),
-    }
 }
 
 fn rest_height(betas: &[f64], device: &Device) -> f64 {
@@ -84,26 +74,25 @@ pub fn fit_portrait(
             KeypointTarget::Vertex(v) => truth.vertices[v].map(f64::from),
         }
     };
-    let mut rng = Rng(seed);
     let targets = body25_targets(|n| body.landmark(n));
+    let noise = DetectorNoise {
+        pixel_sigma: noise_px,
+        miss_rate: 0.0,
+    };
+    let detected = detect(&truth, &targets, &camera, None, &noise, &mut Rng(seed));
     let mut observations = Vec::new();
     let mut keypoints = Vec::with_capacity(25);
-    for target in targets {
-        let seen = target.and_then(|t| camera.project(point(t)).map(|p| (t, p)));
-        match seen {
-            Some((t, p)) => {
-                let pixel = [
-                    p[0] + noise_px * rng.normal(),
-                    p[1] + noise_px * rng.normal(),
-                ];
+    for (target, pixel) in targets.iter().zip(detected) {
+        match (target, pixel) {
+            (Some(t), Some(pixel)) => {
                 observations.push(Observation {
-                    target: t,
+                    target: *t,
                     pixel,
                     confidence: 0.9,
                 });
                 keypoints.push([pixel[0] as f32, pixel[1] as f32, 0.9]);
             }
-            None => keypoints.push([0.0; 3]),
+            _ => keypoints.push([0.0; 3]),
         }
     }
     let feet = foot_targets(|n| body.landmark(n));

@@ -14,7 +14,8 @@ use splatzoo_datasets::openpose::{keypoint_files, read_main_person};
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::fit::{
-    BodyFit, FitConfig, Observation, PinholeCamera, TORSO, body25_targets, fit_sequence,
+    BodyFit, FitConfig, Observation, PinholeCamera, TORSO, body25_observations, body25_targets,
+    fit_sequence,
 };
 use std::path::Path;
 
@@ -44,19 +45,8 @@ impl VideoCamera {
 }
 
 /// One frame's BODY_25 keypoints as observations of the built-in body.
-pub fn body25_observations(body: &[[f32; 3]]) -> Vec<Observation> {
-    let targets = body25_targets(|n| builtin_body().landmark(n));
-    targets
-        .iter()
-        .zip(body)
-        .filter_map(|(target, k)| {
-            target.map(|t| Observation {
-                target: t,
-                pixel: [f64::from(k[0]), f64::from(k[1])],
-                confidence: f64::from(k[2]),
-            })
-        })
-        .collect()
+pub fn builtin_observations(body: &[[f32; 3]]) -> Vec<Observation> {
+    body25_observations(body, &body25_targets(|n| builtin_body().landmark(n)))
 }
 
 /// Fits every frame of `dir` and returns the driving sequence (24 joints, no translation) and
@@ -74,7 +64,7 @@ pub fn poses_from_keypoints(
         let person = read_main_person(file).map_err(dataset)?.ok_or_else(|| {
             AagError::input(file.display().to_string(), "no person in this frame")
         })?;
-        frames.push(body25_observations(&person.body));
+        frames.push(builtin_observations(&person.body));
     }
     let model = &builtin_body().model;
     let fits = fit_sequence(

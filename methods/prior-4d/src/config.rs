@@ -4,6 +4,7 @@
 //! (initialisation) between them and stage D, and stage D (joint) for the rest of
 //! `iterations` — one harness step per optimiser step, so `--iterations` sets D's length.
 
+use crate::body_fit::BodyFitConfig;
 use crate::contact::ContactConfig;
 use crate::data::Prior4dDataConfig;
 use crate::init::GroundConfig;
@@ -226,6 +227,8 @@ pub struct Prior4dConfig {
     pub scene: SceneStageConfig,
     pub avatar: AvatarStageConfig,
     pub plane: GroundConfig,
+    /// Stage C's keypoint refinement of the acting body prior.
+    pub body_fit: BodyFitConfig,
     pub joint: JointConfig,
 }
 
@@ -242,6 +245,7 @@ impl Default for Prior4dConfig {
             scene: SceneStageConfig::default(),
             avatar: AvatarStageConfig::default(),
             plane: GroundConfig::default(),
+            body_fit: BodyFitConfig::default(),
             joint: JointConfig::default(),
         }
     }
@@ -312,6 +316,13 @@ impl MethodConfig for Prior4dConfig {
         }
         if j.eval_stride == 0 {
             return bad("joint.eval_stride ≥ 1".into());
+        }
+        let b = &self.body_fit;
+        if b.iterations == 0 || !(b.robust_sigma_px.is_finite() && b.robust_sigma_px > 0.0) {
+            return bad(format!(
+                "body_fit.iterations ≥ 1 and body_fit.robust_sigma_px > 0, got {} and {}",
+                b.iterations, b.robust_sigma_px
+            ));
         }
         if self.scene.densify.strategy != Strategy::None
             && self.scene.densify.stop > self.scene.steps

@@ -6,6 +6,7 @@
 
 use crate::avatar::avatar_model;
 use crate::avatar_stage::{AvatarStage, SCAN_AVATAR};
+use crate::body_fit::refine_on_keypoints;
 use crate::camera::refinement_choice;
 use crate::config::Prior4dConfig;
 use crate::data::Prior4dCapture;
@@ -90,7 +91,12 @@ impl Prior4d {
 
     fn assemble(mut config: Prior4dConfig, device: &Device) -> Result<Self, Prior4dError> {
         device.seed(config.seed);
-        let capture = config.data.build(device)?;
+        let mut capture = config.data.build(device)?;
+        if config.body_fit.keypoints {
+            let (refined, report) = refine_on_keypoints(&capture, &config.body_fit, device)?;
+            capture.acting_prior = refined;
+            capture.decisions.push(report.line());
+        }
         let camera_choice =
             refinement_choice(config.joint.camera_refinement, capture.acting_cameras);
         config.joint.camera_refinement = Some(camera_choice.enabled);
@@ -423,6 +429,11 @@ impl Method for Prior4d {
     fn modules(&self) -> Vec<ModuleChoice> {
         let j = &self.config.joint;
         vec![
+            ModuleChoice::configured(
+                "keypoint refinement of the body prior (stage C)",
+                "body_fit.keypoints",
+                self.config.body_fit.keypoints,
+            ),
             ModuleChoice::configured(
                 "pose-dependent offsets",
                 "joint.pose_offsets",

@@ -12,6 +12,8 @@
 //!   stand, with noisy SfM camera poses, a camera-space body prior (the tracker's estimate
 //!   under `PriorNoise`, shape error included), jittered person masks and normal maps (true
 //!   normals in the camera frame under a random rotation of `normal_noise_degrees` RMS, blurred).
+//!   Its BODY_25 keypoints are the true body's points projected, with pixel noise and misses
+//!   ([`splatzoo_datasets::synth::keypoints`]), for stage C's keypoint fit.
 //! - **Evaluation**: the preset's fixed camera, synchronised, never trained on.
 //!
 //! Two gaps the paper's challenges come from are built in: an **appearance gap** (each video
@@ -35,6 +37,7 @@ use splatzoo_datasets::image_io::linear_to_srgb;
 use splatzoo_datasets::masks::Mask;
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_datasets::synth::environment::Environment;
+use splatzoo_datasets::synth::keypoints::{DetectorNoise, detect, pinhole};
 use splatzoo_datasets::synth::motion::{Motion, Start, generate};
 use splatzoo_datasets::synth::prior::PriorNoise;
 use splatzoo_datasets::synth::rig::{CameraTrack, ring};
@@ -42,6 +45,7 @@ use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_datasets::synth::scene::{Person, standing_height};
 use splatzoo_datasets::synth::{Preset, Scene, SceneConfig, ViewTruth};
 use splatzoo_models::body::builtin_body;
+use splatzoo_models::body::fit::body25_targets;
 use splatzoo_rasterizer::Camera;
 use splatzoo_train::views::InitPoints;
 use splatzoo_train::views::init_points::back_project;
@@ -75,6 +79,10 @@ pub struct Prior4dDataConfig {
     pub camera_translation_noise: f64,
     /// RMS rotation of the given normal maps (degrees).
     pub normal_noise_degrees: f64,
+    /// The acting video's 2-D keypoints (BODY_25): pixel noise of each coordinate and the
+    /// share of visible points missed (spec §3: 2 px, 5 %).
+    pub keypoint_noise_px: f64,
+    pub keypoint_miss_rate: f64,
     /// Person and ground masks are dilated or eroded by up to this many pixels.
     pub mask_jitter: usize,
     /// Samples per pixel along each axis.
@@ -98,6 +106,8 @@ impl Default for Prior4dDataConfig {
             camera_rotation_noise_degrees: 0.3,
             camera_translation_noise: 0.01,
             normal_noise_degrees: 8.0,
+            keypoint_noise_px: 2.0,
+            keypoint_miss_rate: 0.05,
             mask_jitter: 1,
             supersample: 2,
         }
@@ -121,7 +131,40 @@ impl Prior4dDataConfig {
         if self.supersample == 0 {
             return Err("data.supersample ≥ 1".into());
         }
+        let keypoints_ok = self.keypoint_noise_px.is_finite()
+            && self.keypoint_noise_px >= 0.0
+            && (0.0..1.0).contains(&self.keypoint_miss_rate);
+        if !keypoints_ok {
+            return Err(format!(
+                "data.keypoint_noise_px ≥ 0 and data.keypoint_miss_rate in [0, 1), got {} and {}",
+                self.keypoint_noise_px, self.keypoint_miss_rate
+            ));
+        }
         Ok(())
+    }
+}
+
+impl Prior4dDataConfig {
+    /// The acting video's BODY_25 keypoints from the true posed body (its own random stream,
+    /// so the other sensors' noise is the same with or without them).
+    fn keypoints(&self, person: &Person, cameras: &[Camera]) -> Vec<Vec<[f32; 3]>> {
+        let targets = body25_targets(|n| builtin_body().landmark(n));
+        let noise = DetectorNoise {
+            pixel_sigma: self.keypoint_noise_px,
+            miss_rate: self.keypoint_miss_rate,
+        };
+        let mut rng = Rng(self.seed ^ 0x4B50_0000);
+        cameras
+            .iter()
+            .zip(&person.frames)
+            .map(|(camera, frame)| {
+                let image = Some([camera.width, camera.height]);
+                detect(frame, &targets, &pinhole(camera), image, &noise, &mut rng)
+                    .into_iter()
+                    .map(|p| p.map_or([0.0; 3], |p| [p[0] as f32, p[1] as f32, 0.9]))
+                    .collect()
+            })
+            .collect()
     }
 }
 
@@ -196,6 +239,9 @@ pub struct Prior4dCapture {
     /// The acting video's body prior and truth in each frame's true camera frame (metres).
     pub acting_prior: PoseSequence,
     pub acting_truth: PoseSequence,
+    /// BODY_25 keypoints `[x, y, confidence]` of every acting frame (`[0, 0, 0]` where the
+    /// detector missed the point or it is off the image).
+    pub acting_keypoints: Vec<Vec<[f32; 3]>>,
     pub eval: Vec<EvalFrame>,
     /// The person's true shape (scores only).
     pub true_betas: Vec<f64>,
@@ -436,6 +482,7 @@ impl Prior4dDataConfig {
         let person = &acting_scene.people[0];
         let acting_prior = to_camera_space(&person.prior, metre_cameras, model);
         let acting_truth = to_camera_space(&person.motion, metre_cameras, model);
+        let acting_keypoints = self.keypoints(person, metre_cameras);
         let decisions = vec![format!(
             "synthetic Prior-4D capture, seed {}: scene scan {} views, human scan {} views, \
              acting video {} frames + a fixed evaluation camera, {}×{}; scene units of 1/{} m \
@@ -468,6 +515,7 @@ impl Prior4dDataConfig {
             },
             acting_prior,
             acting_truth,
+            acting_keypoints,
             eval,
             true_betas,
             scale,

@@ -1,10 +1,12 @@
 //! Prior-4D's integration tests, one binary: the floor plane and σ₀, the contact, normal and
 //! Huber terms against hand-computed values, the locator's σ-invariance, camera refinement,
-//! rendered normals against analytic ones, and the pose-dependent offsets' place in Eq. 2.
+//! rendered normals against analytic ones, the pose-dependent offsets' place in Eq. 2, and
+//! stage C's keypoint fit ([`keypoints`]).
 
 mod data;
 mod extremes;
 mod geometry;
+mod keypoints;
 mod objective;
 mod offsets;
 mod plane;

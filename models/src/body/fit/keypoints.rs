@@ -52,6 +52,26 @@ pub fn body25_targets(landmark: impl Fn(&str) -> Option<u32>) -> [Option<Keypoin
     ]
 }
 
+/// One frame's BODY_25 keypoints (`[x, y, confidence]` in pixels, OpenPose's order; a missed
+/// point is `[0, 0, 0]`) as observations of a body whose points `targets` names
+/// ([`body25_targets`]): the points without a target are dropped.
+pub fn body25_observations(
+    keypoints: &[[f32; 3]],
+    targets: &[Option<KeypointTarget>; 25],
+) -> Vec<Observation> {
+    targets
+        .iter()
+        .zip(keypoints)
+        .filter_map(|(target, k)| {
+            target.map(|t| Observation {
+                target: t,
+                pixel: [f64::from(k[0]), f64::from(k[1])],
+                confidence: f64::from(k[2]),
+            })
+        })
+        .collect()
+}
+
 /// SMPLify's torso for the orientation stage: shoulders and hips (SMPL joints).
 pub const TORSO: [KeypointTarget; 5] = [
     KeypointTarget::Joint(0),

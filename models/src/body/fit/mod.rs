@@ -27,7 +27,9 @@ mod camera;
 mod keypoints;
 
 pub use camera::PinholeCamera;
-pub use keypoints::{KeypointTarget, Observation, TORSO, body25_targets, foot_targets};
+pub use keypoints::{
+    KeypointTarget, Observation, TORSO, body25_observations, body25_targets, foot_targets,
+};
 
 /// The fit's knobs.
 #[derive(Debug, Clone, PartialEq)]
@@ -44,6 +46,10 @@ pub struct FitConfig {
     pub shape_prior: f64,
     /// λ_lim, px² per rad².
     pub limit_weight: f64,
+    /// λ_init, px² per rad²: `λ_init ‖θ − θ_init‖²` over the whole pose (root included) when
+    /// the fit starts from `init` — a regressor's or tracker's estimate the keypoints refine
+    /// (0: none, as SMPLify).
+    pub init_pose_weight: f64,
     /// Fit the shape (false: hold `init`'s, or the mean body's).
     pub fit_shape: bool,
     /// A floor at this world height the lowest of `feet` rests on.
@@ -64,6 +70,7 @@ impl Default for FitConfig {
             pose_prior: [100.0, 1.0],
             shape_prior: 20.0,
             limit_weight: 1000.0,
+            init_pose_weight: 0.0,
             fit_shape: true,
             ground: None,
             feet: Vec::new(),
@@ -122,6 +129,8 @@ struct Objective<'a> {
     config: &'a FitConfig,
     device: Device,
     limits: bool,
+    /// `[1, 3J]` the starting pose `λ_init` pulls towards, where the fit has one.
+    init_pose: Option<Tensor<2>>,
 }
 
 impl Objective<'_> {
@@ -214,6 +223,14 @@ impl Objective<'_> {
                     .powi_scalar(2)
                     .sum()
                     .mul_scalar(self.config.shape_prior);
+        }
+        if let Some(init) = &self.init_pose {
+            let full = params.clone().slice([0..1, l.pose()]);
+            loss = loss
+                + (full - init.clone())
+                    .powi_scalar(2)
+                    .sum()
+                    .mul_scalar(self.config.init_pose_weight);
         }
         if self.limits {
             let full = params.clone().slice([0..1, l.pose()]);
@@ -387,8 +404,12 @@ pub fn fit_body(
         camera,
         observations: observations.to_vec(),
         config,
-        device: ad,
         limits: j == SMPL_ANGLE_LIMITS_DEG.len(),
+        init_pose: init.filter(|_| config.init_pose_weight > 0.0).map(|start| {
+            let values: Vec<f32> = start.pose.iter().map(|&v| v as f32).collect();
+            Tensor::<2>::from_data(TensorData::new(values, [1, 3 * j]), &ad)
+        }),
+        device: ad,
     };
     let l = &objective.layout;
     let mut params = vec![0.0f64; l.len()];
