@@ -39,6 +39,9 @@ pub struct DecoupleConfig {
     pub accessory_views: f64,
     /// Forces every tracked person's accessory node on or off; absent, the rule above decides.
     pub accessories: Option<bool>,
+    /// Re-render `M_kine` from the refined poses every this many steps (0: never, the paper's
+    /// θ₀ silhouette throughout; [`crate::refresh`]).
+    pub refresh_every: usize,
 }
 
 impl Default for DecoupleConfig {
@@ -53,6 +56,7 @@ impl Default for DecoupleConfig {
             accessory_area: 0.03,
             accessory_views: 0.3,
             accessories: None,
+            refresh_every: 0,
         }
     }
 }

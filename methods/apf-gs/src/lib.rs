@@ -11,7 +11,7 @@
 //! |---|---|---|
 //! | Eq. 1 | 3DGS compositing (the trailing σ_t is a typo: standard compositing) | [`splatzoo_rasterizer::rasterize`] unchanged |
 //! | Eq. 2 | SMPL `V + B_S(β) + B_P(θ)`, LBS | [`splatzoo_models::body::lbs::pose`] through [`splatzoo_train::scene::SkinnedGaussianNode`] |
-//! | Eq. 3 | `M_acc = M_coarse \ M_kine`, per instance, with the cleanup | [`decouple::decouple_view`], node decision [`decouple::wants_accessory`] |
+//! | Eq. 3 | `M_acc = M_coarse \ M_kine`, per instance, with the cleanup | [`decouple::decouple_view`], node decision [`decouple::wants_accessory`]; `M_kine` optionally refreshed from refined poses, [`refresh`] |
 //! | Eq. 4 | `g_i(t) = T_h(t) ⊗ (LBS(ḡ_i, θ(t)) ⊕ Δ_i)`, the gate `a(σ)` | [`residual::GatedResidual`], [`residual::world_residual`], [`gate::GateConfig::amplitude`] |
 //! | Eq. 5 | `Δ_i = F_φ(γ(μ̄_i), c_t)`; `(c_t, σ_t) = C(f_img, e_h, t)` | [`networks::ResidualField`], [`networks::Guidance`], [`networks::ImageEncoder`], [`guide::guide`] |
 //! | Eq. 6 | `L_photo + λ_pose L_pose + σ λ_sparse L_sparse + (1 − σ) λ_kine L_kine` | [`loss::PersonTerms::total`], [`trainer::ApfTrainer::train_step`] |
@@ -38,6 +38,7 @@ mod method;
 pub mod networks;
 pub mod onnx;
 pub mod parent;
+pub mod refresh;
 pub mod repose;
 pub mod residual;
 pub mod scene;

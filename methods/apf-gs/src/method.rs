@@ -107,6 +107,7 @@ impl Method for ApfTrainer {
         trainer.optimizers = optimizers;
         trainer.step = checkpoint.meta_parsed("step")?;
         trainer.order = EpochOrder::load(checkpoint, trainer.capture.train.len())?;
+        trainer.load_refresh(checkpoint, device)?;
         Ok(trainer)
     }
 
@@ -217,6 +218,7 @@ impl Method for ApfTrainer {
         o.embeddings
             .save_under(&n.embeddings, &mut c, &under("embeddings"));
         self.order.save(&mut c);
+        self.save_refresh(&mut c, &self.background.device());
         c
     }
 

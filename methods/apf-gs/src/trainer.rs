@@ -76,6 +76,8 @@ pub struct ApfTrainer {
     pub step: usize,
     pub(crate) order: EpochOrder,
     pub(crate) background: Tensor<1>,
+    /// The kinematic meshes of the last `M_kine` refresh ([`crate::refresh`]).
+    pub(crate) refreshed: Option<crate::refresh::PeopleMeshes>,
 }
 
 /// The node-alpha pass's targets for one view: human and accessory targets and the pixel
@@ -216,6 +218,7 @@ impl ApfTrainer {
 
     /// One optimiser step on the next training view.
     pub fn train_step(&mut self) -> Result<StepReport, ApfError> {
+        self.refresh_if_due()?;
         let stage = self.stage(self.step);
         let index = self.capture.train[self.order.next(self.capture.train.len())];
         self.scene.begin_step();
@@ -374,6 +377,7 @@ impl ApfTrainer {
             optimizers: NetworkOptimizers::new(),
             step: 0,
             background,
+            refreshed: None,
         })
     }
 }

@@ -1,7 +1,8 @@
 //! APF-GS's integration tests, one binary: the gate and Eq. 4's algebra against scalar
 //! formulas, the networks' initial state, Eq. 3's per-instance decoupling, Eq. 8's attachment,
 //! the trainer end to end on a tiny driving scene (gradients, scene decisions, leakage-free
-//! held-out frames, exact resume), and a drivestudio scene on disk read and trained ([`disk`]).
+//! held-out frames, exact resume), `M_kine` refreshed from refined poses ([`refresh`]), and a
+//! drivestudio scene on disk read and trained ([`disk`]).
 
 mod accessory;
 mod decouple;
@@ -10,6 +11,7 @@ mod extremes;
 mod gate;
 mod objective;
 mod onnx;
+mod refresh;
 mod residual;
 mod trainer;
 
