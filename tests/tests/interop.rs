@@ -15,7 +15,7 @@ use splatzoo_prior_4d::Prior4d;
 use splatzoo_train::avatar::AvatarTrainer;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::harness::{History, Method, check_format};
-use splatzoo_train::ply::read_ply;
+use splatzoo_train::ply::{read_ply, read_ply_columns};
 use splatzoo_train::static_scene::StaticTrainer;
 use splatzoo_train::sweep::SweepSpec;
 use std::path::{Path, PathBuf};
@@ -572,8 +572,25 @@ fn train_illum_outputs_read_back_resume_across_processes_and_relight() {
     }
     let scene = read_ply(&run_dir.join("scene.ply"), &Device::flex()).unwrap();
     let human = read_ply(&run_dir.join("human_canonical.ply"), &Device::flex()).unwrap();
-    let posed = read_ply(&run_dir.join("posed_frame_0002.ply"), &Device::flex()).unwrap();
+    let posed_path = run_dir.join("posed_frame_0002.ply");
+    let posed = read_ply(&posed_path, &Device::flex()).unwrap();
     assert_eq!(posed.len(), scene.len() + human.len());
+    // The human's material maps ride along as extra properties; the scene's rows carry zeros.
+    let maps = read_ply_columns(&posed_path, &["human", "roughness", "metallic", "nx"]).unwrap();
+    let (scene_rows, human_rows) = maps[0].split_at(scene.len());
+    assert!(scene_rows.iter().all(|&f| f == 0.0) && human_rows.iter().all(|&f| f == 1.0));
+    for column in &maps[1..3] {
+        assert!(column[..scene.len()].iter().all(|&v| v == 0.0));
+        assert!(
+            column[scene.len()..]
+                .iter()
+                .all(|v| (0.0..=1.0).contains(v))
+        );
+    }
+    assert!(
+        maps[3][scene.len()..].iter().any(|&v| v != 0.0),
+        "human normals written"
+    );
     assert_eq!(renders_decode(&run_dir.join("renders")), 2);
     for graph in ["visibility", "shadow", "materials"] {
         assert!(

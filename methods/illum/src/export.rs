@@ -4,7 +4,8 @@
 //!   human in canonical space, its colour slot written as the DC colour: linear albedo with
 //!   the light volume, the display colour without);
 //! - `posed_frame_<t>.ply`: scene and human together at the first held-out frame, the human's
-//!   shaded colour baked into its DC;
+//!   shaded colour baked into its DC and its material maps as extra properties (`human`,
+//!   `albedo_0..2`, `metallic`, `roughness`; normals in `nx ny nz`; zeros on the scene's rows);
 //! - `renders/test_<t>.png`: render | truth | albedo | scene occlusion for each scored
 //!   held-out frame, and `test.gif` of the renders;
 //! - `onnx/`: F_vis, F_ao and F_m's network with test vectors, checked in tract.
@@ -20,8 +21,9 @@ use splatzoo_rasterizer::sh::SH_C0;
 use splatzoo_train::TrainError;
 use splatzoo_train::gaussians::{GaussianSet, SH_REST};
 use splatzoo_train::harness::Say;
+use splatzoo_train::host_f32;
 use splatzoo_train::images::{side_by_side, srgb_image, write_gif, write_png};
-use splatzoo_train::ply::write_ply;
+use splatzoo_train::ply::{write_ply, write_ply_with};
 use splatzoo_train::scene::concatenate;
 use std::path::Path;
 
@@ -34,6 +36,47 @@ fn colour_as_sh(colour: Tensor<2>) -> Tensor<3> {
     let device = colour.device();
     let dc = ((colour - 0.5) / SH_C0).reshape([n, 1, 3]);
     Tensor::cat(vec![dc, Tensor::zeros([n, SH_REST, 3], &device)], 1)
+}
+
+/// The posed human's material maps, host-side: `[N, 2]` metallic and roughness, `[N, 3]` linear
+/// albedo, `[N, 3]` world normals.
+struct HumanMaps {
+    material: Vec<f32>,
+    albedo: Vec<f32>,
+    normals: Vec<f32>,
+}
+
+impl HumanMaps {
+    /// `set` (the scene's `scene_rows` Gaussians, then the human's) with the maps as extra
+    /// properties: `human` (1 on the human's rows), `albedo_0..2`, `metallic`, `roughness`,
+    /// and the normals in INRIA's `nx ny nz`; the scene's rows carry zeros.
+    fn write(&self, path: &Path, set: &GaussianSet, scene_rows: usize) -> Result<(), TrainError> {
+        let human_rows = self.albedo.len() / 3;
+        let column = |values: &[f32], stride: usize, k: usize| -> Vec<f32> {
+            std::iter::repeat_n(0.0, scene_rows)
+                .chain(values.chunks_exact(stride).map(|row| row[k]))
+                .collect()
+        };
+        let flags: Vec<f32> = std::iter::repeat_n(0.0, scene_rows)
+            .chain(std::iter::repeat_n(1.0, human_rows))
+            .collect();
+        let mut normals = vec![0.0; 3 * scene_rows];
+        normals.extend_from_slice(&self.normals);
+        let columns = [
+            ("human", flags),
+            ("albedo_0", column(&self.albedo, 3, 0)),
+            ("albedo_1", column(&self.albedo, 3, 1)),
+            ("albedo_2", column(&self.albedo, 3, 2)),
+            ("metallic", column(&self.material, 2, 0)),
+            ("roughness", column(&self.material, 2, 1)),
+        ];
+        let extra: Vec<(&str, &[f32])> = columns
+            .iter()
+            .map(|(name, values)| (*name, values.as_slice()))
+            .collect();
+        write_ply_with(path, set, Some(&normals), &extra)?;
+        Ok(())
+    }
 }
 
 pub fn write_outputs(
@@ -97,10 +140,10 @@ pub fn write_outputs(
         if k == 0 {
             // Scene and human at this frame, the human's shaded colour baked in.
             let scene = trainer.scene.set.splats();
-            let human = match &trainer.stage2 {
+            let (human, maps) = match &trainer.stage2 {
                 Some(stage2) => {
                     let canonical = crate::eval::untracked(stage2.human.set.splats());
-                    let (posed, [colour, ..]) = trainer.stage2_human(
+                    let (posed, [colour, material, albedo, normals]) = trainer.stage2_human(
                         nets,
                         &canonical,
                         &pose,
@@ -108,13 +151,19 @@ pub fn write_outputs(
                         trainer.config.stage2.sampling(false),
                         None,
                     );
-                    Splats {
+                    let maps = HumanMaps {
+                        material: host_f32(&material.inner()),
+                        albedo: host_f32(&albedo.inner()),
+                        normals: host_f32(&normals.inner()),
+                    };
+                    let splats = Splats {
                         means: posed.means.inner(),
                         quats: posed.quats.inner(),
                         log_scales: posed.log_scales.inner(),
                         opacity_logits: posed.opacity_logits.inner(),
                         colors: colour_as_sh(colour.inner().clamp(0.0, 1.0)),
-                    }
+                    };
+                    (splats, maps)
                 }
                 None => {
                     return Err(TrainError::from(IllumError::Input {
@@ -124,10 +173,9 @@ pub fn write_outputs(
                 }
             };
             let name = format!("posed_frame_{:04}.ply", frame.frame);
-            write_ply(
-                &run.join(&name),
-                &GaussianSet::from_splats(&concatenate(vec![scene, human])),
-            )?;
+            let scene_rows = scene.len();
+            let set = GaussianSet::from_splats(&concatenate(vec![scene, human]));
+            maps.write(&run.join(&name), &set, scene_rows)?;
             written.push(name);
         }
     }

@@ -1,5 +1,6 @@
 //! Losses against f64 references and finite differences, PSNR from its definition, Adam
-//! against the scalar update rule, and the INRIA `.ply` round trip and its errors.
+//! against the scalar update rule, and the INRIA `.ply` round trip (with extra properties) and
+//! its errors.
 
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use splatzoo_datasets::synth::rng::Rng;
@@ -8,7 +9,7 @@ use splatzoo_train::gaussians::GaussianSet;
 use splatzoo_train::loss::{
     d_ssim, l1, masked_l1, masked_psnr, masked_ssim, photometric, psnr, scalar, ssim, window,
 };
-use splatzoo_train::ply::{read_ply, write_ply};
+use splatzoo_train::ply::{read_ply, read_ply_columns, write_ply, write_ply_with};
 
 fn image(rng: &mut Rng, h: usize, w: usize) -> Vec<f64> {
     (0..h * w * 3).map(|_| rng.next()).collect()
@@ -236,6 +237,64 @@ fn ply_round_trips_and_bad_files_are_refused() {
     assert!(e.contains("opacity"), "{e}");
     std::fs::write(&path, b"solid\n").unwrap();
     assert!(read_ply(&path, &device).is_err());
+}
+
+/// Normals and extra properties (material maps) ride along: the Gaussians read back unchanged,
+/// the extras by name; mismatched lengths and names INRIA's layout already uses are refused.
+#[test]
+fn ply_extras_round_trip_beside_the_gaussians() {
+    let device = Device::flex();
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Rng(fresh_seed());
+    let n = 17;
+    let positions: Vec<[f32; 3]> = (0..n)
+        .map(|_| [rng.next() as f32, rng.next() as f32, rng.next() as f32])
+        .collect();
+    let sigmas = vec![0.05; n];
+    let set = GaussianSet::from_points(&positions, &positions, &sigmas, &device);
+    let normals: Vec<f32> = (0..3 * n).map(|_| rng.next() as f32 - 0.5).collect();
+    let roughness: Vec<f32> = (0..n).map(|_| rng.next() as f32).collect();
+    let flags: Vec<f32> = (0..n).map(|i| (i % 2) as f32).collect();
+    let path = dir.path().join("m.ply");
+    write_ply_with(
+        &path,
+        &set,
+        Some(&normals),
+        &[("roughness", &roughness), ("human", &flags)],
+    )
+    .unwrap();
+    let plain = dir.path().join("p.ply");
+    write_ply(&plain, &set).unwrap();
+    let v2 = |t: Tensor<2>| t.into_data().try_into_vec::<f32>().unwrap();
+    let (back, same) = (
+        read_ply(&path, &device).unwrap(),
+        read_ply(&plain, &device).unwrap(),
+    );
+    assert_eq!(v2(back.means), v2(same.means));
+    assert_eq!(v2(back.quats), v2(same.quats));
+    let columns = read_ply_columns(&path, &["roughness", "human", "nx", "ny", "nz"]).unwrap();
+    assert_eq!(columns[0], roughness);
+    assert_eq!(columns[1], flags);
+    for i in 0..n {
+        for k in 0..3 {
+            assert_eq!(columns[2 + k][i], normals[3 * i + k]);
+        }
+    }
+    let e = read_ply_columns(&plain, &["roughness"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("roughness") && e.contains("missing"), "{e}");
+    let short = write_ply_with(&path, &set, None, &[("roughness", &roughness[1..])]);
+    assert!(short.unwrap_err().to_string().contains("16 values for 17"));
+    let taken = write_ply_with(&path, &set, None, &[("opacity", &roughness)]);
+    assert!(taken.unwrap_err().to_string().contains("`opacity`"));
+    let bad_normals = write_ply_with(&path, &set, Some(&normals[3..]), &[]);
+    assert!(
+        bad_normals
+            .unwrap_err()
+            .to_string()
+            .contains("normal values")
+    );
 }
 
 /// A seed from the clock, printed so that a failure can be replayed.
