@@ -591,6 +591,15 @@ fn train_illum_outputs_read_back_resume_across_processes_and_relight() {
         maps[3][scene.len()..].iter().any(|&v| v != 0.0),
         "human normals written"
     );
+    let canonical = read_ply_columns(
+        &run_dir.join("human_canonical.ply"),
+        &["albedo_0", "metallic", "roughness"],
+    )
+    .unwrap();
+    for column in &canonical {
+        assert_eq!(column.len(), human.len());
+        assert!(column.iter().all(|v| (0.0..=1.0).contains(v)));
+    }
     assert_eq!(renders_decode(&run_dir.join("renders")), 2);
     for graph in ["visibility", "shadow", "materials"] {
         assert!(

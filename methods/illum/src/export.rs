@@ -2,7 +2,8 @@
 //!
 //! - `scene.ply` (INRIA layout, the scene's SH) and `human_canonical.ply` (the stage-2
 //!   human in canonical space, its colour slot written as the DC colour: linear albedo with
-//!   the light volume, the display colour without);
+//!   the light volume, the display colour without; `albedo_0..2`, `metallic` and `roughness`
+//!   as extra properties);
 //! - `posed_frame_<t>.ply`: scene and human together at the first held-out frame, the human's
 //!   shaded colour baked into its DC and its material maps as extra properties (`human`,
 //!   `albedo_0..2`, `metallic`, `roughness`; normals in `nx ny nz`; zeros on the scene's rows);
@@ -15,6 +16,7 @@ use crate::onnx::{IllumNetworks, export};
 use crate::trainer::IllumTrainer;
 use burn::module::Module;
 use burn::tensor::Tensor;
+use burn::tensor::activation::sigmoid;
 use splatzoo_datasets::DatasetError;
 use splatzoo_rasterizer::Splats;
 use splatzoo_rasterizer::sh::SH_C0;
@@ -87,6 +89,7 @@ pub fn write_outputs(
     let mut summary = serde_json::Map::new();
     write_ply(&run.join("scene.ply"), &trainer.scene.set)?;
     let mut written = vec!["scene.ply".to_owned()];
+    let (volume, decoder, materials) = trainer.frozen();
     if let Some(stage2) = &trainer.stage2 {
         let set = &stage2.human.set;
         let n = set.len();
@@ -98,14 +101,36 @@ pub fn write_outputs(
             ]),
             ..set.clone()
         };
-        write_ply(&run.join("human_canonical.ply"), &canonical)?;
+        // Metallic and roughness of each Gaussian from the material network (zero without the
+        // light volume, which has no materials); the albedo is the DC colour's.
+        let material = if trainer.config.ablation.light_volume {
+            let per_vertex = sigmoid(materials.forward_queries(&trainer.material_queries));
+            host_f32(&stage2.binding.transfer.apply(per_vertex).inner())
+        } else {
+            vec![0.0; 2 * n]
+        };
+        let albedo = host_f32(&set.sh_dc.clone().reshape([n, 3]).clamp(0.0, 1.0));
+        let column = |values: &[f32], stride: usize, k: usize| -> Vec<f32> {
+            values.chunks_exact(stride).map(|row| row[k]).collect()
+        };
+        let columns = [
+            ("albedo_0", column(&albedo, 3, 0)),
+            ("albedo_1", column(&albedo, 3, 1)),
+            ("albedo_2", column(&albedo, 3, 2)),
+            ("metallic", column(&material, 2, 0)),
+            ("roughness", column(&material, 2, 1)),
+        ];
+        let extra: Vec<(&str, &[f32])> = columns
+            .iter()
+            .map(|(name, values)| (*name, values.as_slice()))
+            .collect();
+        write_ply_with(&run.join("human_canonical.ply"), &canonical, None, &extra)?;
         written.push("human_canonical.ply".into());
     }
 
     let renders = run.join("renders");
     std::fs::create_dir_all(&renders)
         .map_err(|e| DatasetError::file(&renders, format!("cannot create ({e})")))?;
-    let (volume, decoder, materials) = trainer.frozen();
     let nets = crate::steps::Nets {
         volume: &volume,
         decoder: &decoder,
