@@ -40,43 +40,56 @@ fn colour_as_sh(colour: Tensor<2>) -> Tensor<3> {
     Tensor::cat(vec![dc, Tensor::zeros([n, SH_REST, 3], &device)], 1)
 }
 
-/// The posed human's material maps, host-side: `[N, 2]` metallic and roughness, `[N, 3]` linear
-/// albedo, `[N, 3]` world normals.
+/// The human's material maps, host-side: `[N, 2]` metallic and roughness, `[N, 3]` linear
+/// albedo, `[N, 3]` world normals where posed.
 struct HumanMaps {
     material: Vec<f32>,
     albedo: Vec<f32>,
-    normals: Vec<f32>,
+    normals: Option<Vec<f32>>,
 }
 
 impl HumanMaps {
-    /// `set` (the scene's `scene_rows` Gaussians, then the human's) with the maps as extra
-    /// properties: `human` (1 on the human's rows), `albedo_0..2`, `metallic`, `roughness`,
-    /// and the normals in INRIA's `nx ny nz`; the scene's rows carry zeros.
-    fn write(&self, path: &Path, set: &GaussianSet, scene_rows: usize) -> Result<(), TrainError> {
+    /// `set` with the maps as extra properties `albedo_0..2`, `metallic`, `roughness` and the
+    /// normals in INRIA's `nx ny nz`; with `scene_rows`, `set` is the scene's Gaussians then the
+    /// human's, a `human` flag (1 on the human's rows) comes first and the scene's rows carry
+    /// zeros.
+    fn write(
+        &self,
+        path: &Path,
+        set: &GaussianSet,
+        scene_rows: Option<usize>,
+    ) -> Result<(), TrainError> {
+        let padding = scene_rows.unwrap_or(0);
         let human_rows = self.albedo.len() / 3;
         let column = |values: &[f32], stride: usize, k: usize| -> Vec<f32> {
-            std::iter::repeat_n(0.0, scene_rows)
+            std::iter::repeat_n(0.0, padding)
                 .chain(values.chunks_exact(stride).map(|row| row[k]))
                 .collect()
         };
-        let flags: Vec<f32> = std::iter::repeat_n(0.0, scene_rows)
-            .chain(std::iter::repeat_n(1.0, human_rows))
-            .collect();
-        let mut normals = vec![0.0; 3 * scene_rows];
-        normals.extend_from_slice(&self.normals);
-        let columns = [
-            ("human", flags),
+        let mut columns = Vec::new();
+        if scene_rows.is_some() {
+            let flags: Vec<f32> = std::iter::repeat_n(0.0, padding)
+                .chain(std::iter::repeat_n(1.0, human_rows))
+                .collect();
+            columns.push(("human", flags));
+        }
+        columns.extend([
             ("albedo_0", column(&self.albedo, 3, 0)),
             ("albedo_1", column(&self.albedo, 3, 1)),
             ("albedo_2", column(&self.albedo, 3, 2)),
             ("metallic", column(&self.material, 2, 0)),
             ("roughness", column(&self.material, 2, 1)),
-        ];
+        ]);
+        let normals = self.normals.as_ref().map(|n| {
+            let mut all = vec![0.0; 3 * padding];
+            all.extend_from_slice(n);
+            all
+        });
         let extra: Vec<(&str, &[f32])> = columns
             .iter()
             .map(|(name, values)| (*name, values.as_slice()))
             .collect();
-        write_ply_with(path, set, Some(&normals), &extra)?;
+        write_ply_with(path, set, normals.as_deref(), &extra)?;
         Ok(())
     }
 }
@@ -109,22 +122,12 @@ pub fn write_outputs(
         } else {
             vec![0.0; 2 * n]
         };
-        let albedo = host_f32(&set.sh_dc.clone().reshape([n, 3]).clamp(0.0, 1.0));
-        let column = |values: &[f32], stride: usize, k: usize| -> Vec<f32> {
-            values.chunks_exact(stride).map(|row| row[k]).collect()
+        let maps = HumanMaps {
+            material,
+            albedo: host_f32(&set.sh_dc.clone().reshape([n, 3]).clamp(0.0, 1.0)),
+            normals: None,
         };
-        let columns = [
-            ("albedo_0", column(&albedo, 3, 0)),
-            ("albedo_1", column(&albedo, 3, 1)),
-            ("albedo_2", column(&albedo, 3, 2)),
-            ("metallic", column(&material, 2, 0)),
-            ("roughness", column(&material, 2, 1)),
-        ];
-        let extra: Vec<(&str, &[f32])> = columns
-            .iter()
-            .map(|(name, values)| (*name, values.as_slice()))
-            .collect();
-        write_ply_with(&run.join("human_canonical.ply"), &canonical, None, &extra)?;
+        maps.write(&run.join("human_canonical.ply"), &canonical, None)?;
         written.push("human_canonical.ply".into());
     }
 
@@ -179,7 +182,7 @@ pub fn write_outputs(
                     let maps = HumanMaps {
                         material: host_f32(&material.inner()),
                         albedo: host_f32(&albedo.inner()),
-                        normals: host_f32(&normals.inner()),
+                        normals: Some(host_f32(&normals.inner())),
                     };
                     let splats = Splats {
                         means: posed.means.inner(),
@@ -200,7 +203,7 @@ pub fn write_outputs(
             let name = format!("posed_frame_{:04}.ply", frame.frame);
             let scene_rows = scene.len();
             let set = GaussianSet::from_splats(&concatenate(vec![scene, human]));
-            maps.write(&run.join(&name), &set, scene_rows)?;
+            maps.write(&run.join(&name), &set, Some(scene_rows))?;
             written.push(name);
         }
     }
