@@ -10,6 +10,7 @@ use crate::data::Prior4dDataConfig;
 use crate::init::GroundConfig;
 use crate::loss::HuberConfig;
 use crate::offsets::PoseOffsetConfig;
+use crate::sources::PriorSource;
 use serde::{Deserialize, Serialize};
 use splatzoo_train::TrainError;
 use splatzoo_train::backend::Backend;
@@ -34,6 +35,9 @@ pub struct SceneStageConfig {
     pub holdout_every: usize,
     pub rates: LearningRates,
     pub densify: DensifyConfig,
+    /// The video stage A trains on: the scene scan (the paper) or the acting video (Fig. 5's
+    /// "without the scene prior"; [`crate::sources`]).
+    pub source: PriorSource,
 }
 
 impl Default for SceneStageConfig {
@@ -53,6 +57,7 @@ impl Default for SceneStageConfig {
                 max_gaussians: 60_000,
                 ..DensifyConfig::default()
             },
+            source: PriorSource::Scan,
         }
     }
 }
@@ -70,6 +75,9 @@ pub struct AvatarStageConfig {
     pub rates: LearningRates,
     /// Every this many scan views is held out of stage B (its score only).
     pub holdout_every: usize,
+    /// The video stage B trains on: the human scan (the paper) or the acting video (Fig. 5's
+    /// "without the avatar prior"; [`crate::sources`]).
+    pub source: PriorSource,
 }
 
 impl Default for AvatarStageConfig {
@@ -85,6 +93,7 @@ impl Default for AvatarStageConfig {
             },
             rates: LearningRates::default(),
             holdout_every: 6,
+            source: PriorSource::Scan,
         }
     }
 }

@@ -45,6 +45,7 @@ pub mod onnx;
 pub mod plane;
 pub mod render;
 pub mod scene_stage;
+pub mod sources;
 
 pub use error::Prior4dError;
 pub use method::{Prior4d, Prior4dArgs, Stage};

@@ -14,6 +14,7 @@ use crate::error::Prior4dError;
 use crate::eval::JointScores;
 use crate::joint::{AVATAR, JOINT_SCENE, JointStage};
 use crate::scene_stage::{SCENE, SceneStage};
+use crate::sources::PriorSource;
 use burn::module::Module;
 use burn::tensor::Device;
 use splatzoo_models::body::BodyModel;
@@ -60,6 +61,12 @@ pub struct Prior4dArgs {
     /// Every scene parameter free in stage D, not only its SH.
     #[arg(long)]
     pub free_scene: bool,
+    /// The scene prior trained on the acting video instead of the scene scan (Fig. 5).
+    #[arg(long)]
+    pub no_scene_prior: bool,
+    /// The avatar prior trained on the acting video instead of the human scan (Fig. 5).
+    #[arg(long)]
+    pub no_avatar_prior: bool,
 }
 
 pub struct Prior4d {
@@ -97,6 +104,14 @@ impl Prior4d {
             capture.acting_prior = refined;
             capture.decisions.push(report.line());
         }
+        if config.scene.source == PriorSource::Acting {
+            let line = capture.scene_from_acting();
+            capture.decisions.push(line);
+        }
+        if config.avatar.source == PriorSource::Acting {
+            let line = capture.avatar_from_acting();
+            capture.decisions.push(line);
+        }
         let camera_choice =
             refinement_choice(config.joint.camera_refinement, capture.acting_cameras);
         config.joint.camera_refinement = Some(camera_choice.enabled);
@@ -105,9 +120,9 @@ impl Prior4d {
         let avatar = AvatarStage::new(&capture, &model, &config.avatar, config.seed, device)?;
         let mut decisions = capture.decisions.clone();
         decisions.push(format!(
-            "stage A: scene prior on {} scan views ({} held out), {} starting points; stage B: \
-             avatar prior of {} Gaussians (built-in body, {} subdivision(s)) on {} scan views \
-             ({} held out); stage D on {} acting frames",
+            "stage A: scene prior on {} views ({} held out), {} starting points; stage B: \
+             avatar prior of {} Gaussians (built-in body, {} subdivision(s)) on {} views ({} \
+             held out); stage D on {} acting frames",
             scene.train.len(),
             scene.test.len(),
             capture.scene_points.len(),
@@ -297,6 +312,8 @@ impl Method for Prior4d {
         off(args.no_pose_offsets, "joint.pose_offsets=false");
         off(args.no_camera_refinement, "joint.camera_refinement=false");
         off(args.free_scene, "joint.free_scene=true");
+        off(args.no_scene_prior, "scene.source=acting");
+        off(args.no_avatar_prior, "avatar.source=acting");
         sets
     }
 

@@ -53,6 +53,14 @@ pub fn camera_extent(cameras: &[Camera]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// `render` with the pixels of `person` (`[H, W]`, 0/1) taken from `image`: no loss and no
+/// gradient there (the person in views from the acting video, [`crate::sources`]).
+pub fn without_person(render: Tensor<3>, image: Tensor<3>, person: Tensor<2>) -> Tensor<3> {
+    let [h, w] = person.dims();
+    let m = person.reshape([h, w, 1]);
+    render * m.clone().neg().add_scalar(1.0) + image * m
+}
+
 /// One scan view's depth target: the mapped monocular inverse depth `[H, W]` and where it is
 /// valid (0/1).
 struct DepthTarget {
@@ -181,7 +189,16 @@ impl SceneStage {
         let view = &capture.scene_scan[k];
         self.node.begin_step();
         let render = self.render(view.camera, Self::sh_degree(config, step), true)?;
-        let photo = photometric(render.color.clone(), view.image.clone().autodiff(), 0.2);
+        let image = view.image.clone().autodiff();
+        let color = match &view.person {
+            Some(person) => without_person(
+                render.color.clone(),
+                image.clone(),
+                person.clone().autodiff(),
+            ),
+            None => render.color.clone(),
+        };
+        let photo = photometric(color, image, 0.2);
         let progress = step as f64 / config.steps.max(1) as f64;
         let weight = config.depth_start * (config.depth_end / config.depth_start).powf(progress);
         let mut loss = photo.clone();
@@ -209,7 +226,6 @@ impl SceneStage {
         Ok(scalar(photo.inner()))
     }
 
-    /// PSNR and SSIM over the held-out scan views at SH `degree`.
     /// Renders the held-out scan views (read back, unscored); returns how many.
     pub fn render_held_out(
         &self,
@@ -226,6 +242,8 @@ impl SceneStage {
         Ok(self.test.len())
     }
 
+    /// PSNR and SSIM over the held-out views at SH `degree` (a masked person's pixels taken
+    /// from the image).
     pub fn evaluate(
         &self,
         capture: &Prior4dCapture,
@@ -234,10 +252,13 @@ impl SceneStage {
         let mut sum = (0.0, 0.0);
         for &k in &self.test {
             let view = &capture.scene_scan[k];
-            let image = self
+            let mut image = self
                 .render(view.camera, degree, false)?
                 .color
                 .clamp(0.0, 1.0);
+            if let Some(person) = &view.person {
+                image = without_person(image, view.image.clone(), person.clone());
+            }
             sum.0 += psnr(image.clone(), view.image.clone());
             sum.1 += scalar(ssim(image, view.image.clone()));
         }

@@ -1,7 +1,10 @@
-//! `ablate-prior4d`: the spec's ablation table from one binary. Stages A and B run once; stage
-//! D then runs once per arm from that same state (each arm one `--set` line apart from the
-//! full method), for each seed of stage D; the table goes to `<out>/ablation.csv` and each
-//! arm's scores to `<out>/<arm>.json`.
+//! `ablate-prior4d`: the spec's ablation table from one binary. Stages A and B run once for
+//! every arm that keeps the priors as they are; stage D then runs once per arm from that same
+//! state (each arm one `--set` line apart from the full method), for each seed of stage D. An
+//! arm that changes a prior (`scene.*`, `avatar.*`: without the scene or avatar prior, and the
+//! ExAvatar-like baseline) trains its own stages A and B first. The table goes to
+//! `<out>/ablation.csv` (with the stage-D start of each set of priors as a `priors_only` row)
+//! and each arm's scores to `<out>/<arm>_seed<seed>.json`.
 //!
 //! ```sh
 //! cargo run --release --bin ablate-prior4d -- --out runs/prior4d-ablation
@@ -13,13 +16,14 @@ use splatzoo_prior_4d::Prior4d;
 use splatzoo_prior_4d::config::Prior4dConfig;
 use splatzoo_prior_4d::eval::JointScores;
 use splatzoo_train::TrainError;
+use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::harness::{Method, MethodConfig, arms};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
 /// Every arm: its name and the overrides that make it.
-const ARMS: [(&str, &[&str]); 11] = [
+const ARMS: [(&str, &[&str]); 14] = [
     ("full", &[]),
     ("no_normal", &["joint.normal=0.0"]),
     ("no_contact", &["joint.contact=0.0"]),
@@ -37,7 +41,53 @@ const ARMS: [(&str, &[&str]); 11] = [
         "sigma_x0.7_no_contact",
         &["joint.sigma_scale=0.7", "joint.contact=0.0"],
     ),
+    // Fig. 5: each prior trained on the acting video instead of its scan.
+    ("no_scene_prior", &["scene.source=acting"]),
+    ("no_avatar_prior", &["avatar.source=acting"]),
+    // The spec's second internal baseline (§7): no priors, no contact, normal or Huber term,
+    // no pose-dependent offsets, the cameras as given.
+    (
+        "exavatar_like",
+        &[
+            "scene.source=acting",
+            "avatar.source=acting",
+            "joint.contact=0.0",
+            "joint.normal=0.0",
+            "joint.huber=0.0",
+            "joint.pose_offsets=false",
+            "joint.camera_refinement=false",
+        ],
+    ),
 ];
+
+/// An arm's overrides that change stage A or B (so it needs priors of its own).
+fn prior_overrides(sets: &[&str]) -> Vec<String> {
+    sets.iter()
+        .filter(|s| s.starts_with("scene.") || s.starts_with("avatar."))
+        .map(|s| s.to_string())
+        .collect()
+}
+
+/// Stages A and B under `base` with `overrides`: the checkpoint stage D starts from.
+fn train_priors(
+    base: &Prior4dConfig,
+    overrides: &[String],
+    device: &burn::tensor::Device,
+) -> Result<Checkpoint, TrainError> {
+    let config: Prior4dConfig = splatzoo_train::config::load(base, None, overrides)?;
+    config.validate()?;
+    let start = Instant::now();
+    let mut method = Prior4d::new(config.clone(), device)?;
+    while method.steps() < config.joint_start() {
+        method.step()?;
+    }
+    eprintln!(
+        "stages A and B [{}]: {:.0} s; stage D per arm from here",
+        overrides.join(" "),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(with_step(&method.checkpoint(), config.joint_start()))
+}
 
 #[derive(Debug, Parser)]
 #[command(about = "Prior-4D's ablations: stage D per arm from one shared stage A + B")]
@@ -83,33 +133,29 @@ fn run(args: &Args) -> Result<(), TrainError> {
     let arms = arms::select(&ARMS, &args.arms)?;
     arms::create_dir(&args.out)?;
     let device = base.backend.device();
-    let start = Instant::now();
-    let mut shared = Prior4d::new(base.clone(), &device)?;
-    while shared.steps() < base.joint_start() {
-        shared.step()?;
-    }
-    let priors = shared.checkpoint();
-    eprintln!(
-        "stages A and B: {:.0} s; stage D per arm from here",
-        start.elapsed().as_secs_f64()
-    );
+    // Each set of prior overrides, its stage-D start and (once run) that start's scores.
+    let mut priors: Vec<(Vec<String>, Checkpoint, Option<JointScores>)> = Vec::new();
     let mut lines = vec![
         "arm,seed,psnr,ssim,one_minus_ssim,normal_mean_deg,normal_median_deg,mask_iou,sigma,sigma_error,penetration_rate,foot_distance_mm,foot_height_mm,camera_centre_rms_mm,camera_rotation_deg,mpjpe_mm,prior_mpjpe_mm,seconds"
             .to_owned(),
     ];
-    let mut priors_only = None;
     for (name, sets) in arms {
+        let key = prior_overrides(sets);
+        let group = match priors.iter().position(|(k, _, _)| *k == key) {
+            Some(group) => group,
+            None => {
+                let checkpoint = train_priors(&base, &key, &device)?;
+                priors.push((key, checkpoint, None));
+                priors.len() - 1
+            }
+        };
         for seed in 0..args.seeds {
             let mut overrides: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
             overrides.push(format!("joint.seed={seed}"));
             let config: Prior4dConfig = splatzoo_train::config::load(&base, None, &overrides)?;
             config.validate()?;
             let arm_start = Instant::now();
-            let mut method = Prior4d::resume(
-                config.clone(),
-                &with_step(&priors, base.joint_start()),
-                &device,
-            )?;
+            let mut method = Prior4d::resume(config.clone(), &priors[group].1, &device)?;
             while method.steps() < config.iterations {
                 method.step()?;
             }
@@ -118,17 +164,23 @@ fn run(args: &Args) -> Result<(), TrainError> {
             let row = csv_row(name, seed, &scores, seconds);
             eprintln!("{row}");
             lines.push(row);
-            if sets.is_empty() && priors_only.is_none() {
-                // The full method's stage-D start: the priors alone.
-                priors_only = method.priors_only.clone();
+            if priors[group].2.is_none() {
+                // Stage D's start: these priors alone.
+                priors[group].2 = method.priors_only.clone();
             }
             let json = serde_json::to_string_pretty(&scores).expect("plain data");
             let path = args.out.join(format!("{name}_seed{seed}.json"));
             arms::write_text(&path, &json)?;
         }
     }
-    if let Some(p) = priors_only {
-        lines.push(csv_row("priors_only", 0, &p, 0.0));
+    for (key, _, scores) in &priors {
+        if let Some(p) = scores {
+            let name = match key.is_empty() {
+                true => "priors_only".to_owned(),
+                false => format!("priors_only[{}]", key.join(" ")),
+            };
+            lines.push(csv_row(&name, 0, p, 0.0));
+        }
     }
     let path = args.out.join("ablation.csv");
     let table = lines.join("\n") + "\n";
@@ -138,10 +190,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
 }
 
 /// The shared checkpoint with its step set (the harness writes `step`; here we do).
-fn with_step(
-    checkpoint: &splatzoo_train::checkpoint::Checkpoint,
-    step: usize,
-) -> splatzoo_train::checkpoint::Checkpoint {
+fn with_step(checkpoint: &Checkpoint, step: usize) -> Checkpoint {
     let mut c = checkpoint.clone();
     c.put_meta("step", step);
     c

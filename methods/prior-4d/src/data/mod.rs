@@ -180,6 +180,9 @@ pub struct SceneScanView {
     /// monocular depth's affine map is fitted to are sampled from it.
     pub depth: Vec<f32>,
     pub ground: Mask,
+    /// `[H, W]` 0/1 pixels the scene is not trained on: the person, where the views are the
+    /// acting video's ([`crate::sources`]); `None` on the scan, which shows no one.
+    pub person: Option<Tensor<2>>,
 }
 
 /// One human-scan view.
@@ -201,6 +204,12 @@ pub struct ActingFrame {
     pub mask: Tensor<2>,
     /// `[H, W, 3]` the given normal map, camera frame (OpenCV axes), zero off the person.
     pub normals: Tensor<3>,
+    /// The floor's pixels outside the person mask, jittered, its monocular inverse depth (0 on
+    /// the person) and true depth (∞ on the person), as the scan views have them: read only
+    /// when the scene prior comes from this video ([`crate::sources`]).
+    pub ground: Mask,
+    pub mono_inverse_depth: Tensor<2>,
+    pub depth: Vec<f32>,
 }
 
 /// One evaluation frame (never trained on).
@@ -226,6 +235,10 @@ pub struct Prior4dCapture {
     pub scene_scan: Vec<SceneScanView>,
     /// Back-projected from the scan's true depth, scene units (the SfM points' stand-in).
     pub scene_points: InitPoints,
+    /// The same from the acting video alone: its true depth outside the given person masks,
+    /// back-projected through the given (SfM) cameras and thinned to as many points (what SfM
+    /// on that video would give; read only when the scene prior comes from it).
+    pub acting_points: InitPoints,
     /// sRGB.
     pub scene_background: [f32; 3],
     pub human_scan: Vec<HumanScanView>,
@@ -256,6 +269,22 @@ fn srgb(view: &ViewTruth, gain: [f32; 3]) -> Vec<f32> {
         .color
         .iter()
         .flat_map(|c| [0, 1, 2].map(|k| linear_to_srgb((c[k] * gain[k]).clamp(0.0, 1.0))))
+        .collect()
+}
+
+/// A monocular depth network's stand-in: the true inverse depth under a random affine map, with
+/// 3 % noise; 0 where `depth` is not finite and positive.
+fn monocular_inverse_depth(depth: &[f32], rng: &mut Rng) -> Vec<f32> {
+    let (a, b) = (rng.range(0.5, 2.0), rng.range(0.0, 0.2));
+    depth
+        .iter()
+        .map(|&d| {
+            if d.is_finite() && d > 0.0 {
+                ((a / f64::from(d) + b) * (1.0 + 0.03 * rng.normal())) as f32
+            } else {
+                0.0
+            }
+        })
         .collect()
 }
 
@@ -353,23 +382,14 @@ impl Prior4dDataConfig {
                 .map(|&d| (f64::from(d) * scale) as f32)
                 .collect();
             back_project(&camera, &depth, &image, 4, &mut scene_points);
-            let (a, b) = (rng.range(0.5, 2.0), rng.range(0.0, 0.2));
-            let mono: Vec<f32> = depth
-                .iter()
-                .map(|&d| {
-                    if d.is_finite() && d > 0.0 {
-                        ((a / f64::from(d) + b) * (1.0 + 0.03 * rng.normal())) as f32
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
+            let mono = monocular_inverse_depth(&depth, &mut rng);
             scene_scan.push(SceneScanView {
                 camera,
                 image: image_tensor(image, w, h, device),
                 mono_inverse_depth: Tensor::from_data(TensorData::new(mono, [h, w]), device),
                 depth,
                 ground: jittered(floor_mask(truth), self.mask_jitter, &mut rng),
+                person: None,
             });
         }
         let scene_points = scene_points.thinned(self.scene_points, self.seed ^ 0x9414_0001);
@@ -443,6 +463,10 @@ impl Prior4dDataConfig {
 
         // The acting video and the evaluation camera, frame by frame.
         let mut acting = Vec::with_capacity(self.acting_frames);
+        let mut acting_points = InitPoints::default();
+        // Its own stream: the acting video's ground masks and monocular depth leave the rest of
+        // the capture as it was.
+        let mut acting_scene_rng = Rng(self.seed ^ 0x9414_0003);
         let mut eval = Vec::with_capacity(self.acting_frames);
         for t in 0..acting_scene.frame_count {
             let mut truths = acting_scene.render_tracks(t, &[0, 1], true).into_iter();
@@ -458,17 +482,48 @@ impl Prior4dDataConfig {
             let normals =
                 noisy_normals(&act, &act.human_mask(), self.normal_noise_degrees, &mut rng);
             let true_camera = scaled_camera(&act.camera, scale);
+            let camera = perturbed(
+                &true_camera,
+                self.camera_rotation_noise_degrees,
+                self.camera_translation_noise * scale,
+                &mut rng,
+            );
+            let image = srgb(&act, self.acting_gain);
+            let surroundings: Vec<f32> = act
+                .render
+                .depth
+                .iter()
+                .zip(&person.data)
+                .map(|(&d, &p)| {
+                    if p {
+                        f32::INFINITY
+                    } else {
+                        (f64::from(d) * scale) as f32
+                    }
+                })
+                .collect();
+            back_project(&camera, &surroundings, &image, 4, &mut acting_points);
+            let mono = monocular_inverse_depth(&surroundings, &mut acting_scene_rng);
+            let floor = floor_mask(&act);
+            let ground = Mask::new(
+                w,
+                h,
+                floor
+                    .data
+                    .iter()
+                    .zip(&person.data)
+                    .map(|(&f, &p)| f && !p)
+                    .collect(),
+            );
             acting.push(ActingFrame {
-                camera: perturbed(
-                    &true_camera,
-                    self.camera_rotation_noise_degrees,
-                    self.camera_translation_noise * scale,
-                    &mut rng,
-                ),
+                camera,
                 true_camera,
-                image: image_tensor(srgb(&act, self.acting_gain), w, h, device),
+                image: image_tensor(image, w, h, device),
                 mask: mask_tensor(&person, device),
                 normals: Tensor::from_data(TensorData::new(normals, [h, w, 3]), device),
+                ground: jittered(ground, self.mask_jitter, &mut acting_scene_rng),
+                mono_inverse_depth: Tensor::from_data(TensorData::new(mono, [h, w]), device),
+                depth: surroundings,
             });
             let eval_mask = Mask::new(w, h, fixed.human_mask());
             eval.push(EvalFrame {
@@ -478,6 +533,7 @@ impl Prior4dDataConfig {
                 mask: eval_mask,
             });
         }
+        let acting_points = acting_points.thinned(self.scene_points, self.seed ^ 0x9414_0002);
         let metre_cameras = &acting_scene.tracks[0].cameras;
         let person = &acting_scene.people[0];
         let acting_prior = to_camera_space(&person.prior, metre_cameras, model);
@@ -501,6 +557,7 @@ impl Prior4dDataConfig {
         Ok(Prior4dCapture {
             scene_scan,
             scene_points,
+            acting_points,
             scene_background,
             human_scan,
             scan_prior,

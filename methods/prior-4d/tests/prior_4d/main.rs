@@ -1,7 +1,8 @@
 //! Prior-4D's integration tests, one binary: the floor plane and σ₀, the contact, normal and
 //! Huber terms against hand-computed values, the locator's σ-invariance, camera refinement,
 //! rendered normals against analytic ones, the pose-dependent offsets' place in Eq. 2, and
-//! stage C's keypoint fit ([`keypoints`]).
+//! stage C's keypoint fit ([`keypoints`]), and the priors taken from the acting video
+//! ([`sources`]).
 
 mod data;
 mod extremes;
@@ -10,6 +11,7 @@ mod keypoints;
 mod objective;
 mod offsets;
 mod plane;
+mod sources;
 mod trainer;
 
 use burn::tensor::Tensor;

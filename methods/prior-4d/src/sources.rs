@@ -1,0 +1,91 @@
+//! Where the two priors come from (§3 of Prior-4D). The paper trains the scene prior on a scan
+//! of the empty room (stage A) and the avatar prior on a scan of the person (stage B); Fig. 5
+//! shows what is lost without either, that prior then trained on the acting video itself, and
+//! the spec's ExAvatar-like baseline (§7) takes both from it. [`PriorSource::Acting`] swaps the
+//! scan for the acting video before the stages are built, so stages A–D run unchanged:
+//!
+//! - **scene**: the acting frames as scan views through their given (SfM) cameras, the person's
+//!   pixels (its given masks) kept out of the loss, with their monocular depth and floor masks,
+//!   starting from the acting video's own points ([`Prior4dCapture::acting_points`]);
+//! - **avatar**: the acting frames in each frame's camera frame (identity extrinsics, metres:
+//!   how ExAvatar fits a monocular video) with the person masks and the camera-space body prior
+//!   (after stage C's keypoint refinement when that is on). Furniture hides the person at
+//!   times, so the avatar also learns to stay out of what hides it.
+//!
+//! Every acting frame is offered to the stage, which holds out its own share as it does on a
+//! scan; the evaluation camera stays unseen.
+
+use crate::data::{HumanScanView, Prior4dCapture, SceneScanView};
+use serde::{Deserialize, Serialize};
+use splatzoo_rasterizer::Camera;
+
+/// The video a prior is trained on.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PriorSource {
+    /// Its own scan (the paper).
+    #[default]
+    Scan,
+    /// The acting video (Fig. 5's "without the prior"; the ExAvatar-like baseline).
+    Acting,
+}
+
+/// `camera`'s intrinsics and clipping with the identity pose: its own frame as the world.
+pub fn in_own_frame(camera: &Camera) -> Camera {
+    Camera {
+        world_to_camera: [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ],
+        ..*camera
+    }
+}
+
+impl Prior4dCapture {
+    /// Replaces the scene scan and its points by the acting video's; returns the decision.
+    pub fn scene_from_acting(&mut self) -> String {
+        let scanned = self.scene_scan.len();
+        self.scene_scan = self
+            .acting
+            .iter()
+            .map(|frame| SceneScanView {
+                camera: frame.camera,
+                image: frame.image.clone(),
+                mono_inverse_depth: frame.mono_inverse_depth.clone(),
+                depth: frame.depth.clone(),
+                ground: frame.ground.clone(),
+                person: Some(frame.mask.clone()),
+            })
+            .collect();
+        self.scene_points = self.acting_points.clone();
+        format!(
+            "scene prior from the acting video (scene.source = \"acting\"): {} frames and {} of \
+             its points in place of the {scanned}-view scan, the person masked out of the loss",
+            self.scene_scan.len(),
+            self.scene_points.len()
+        )
+    }
+
+    /// Replaces the human scan and its body fit by the acting video's, each frame in its own
+    /// camera frame; returns the decision.
+    pub fn avatar_from_acting(&mut self) -> String {
+        let scanned = self.human_scan.len();
+        self.human_scan = self
+            .acting
+            .iter()
+            .map(|frame| HumanScanView {
+                camera: in_own_frame(&frame.camera),
+                image: frame.image.clone(),
+                mask: frame.mask.clone(),
+            })
+            .collect();
+        self.scan_prior = self.acting_prior.clone();
+        format!(
+            "avatar prior from the acting video (avatar.source = \"acting\"): {} frames in \
+             each camera's frame, with the camera-space body prior, in place of the \
+             {scanned}-view human scan",
+            self.human_scan.len()
+        )
+    }
+}
