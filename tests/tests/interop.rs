@@ -600,6 +600,29 @@ fn train_illum_outputs_read_back_resume_across_processes_and_relight() {
         assert_eq!(column.len(), human.len());
         assert!(column.iter().all(|v| (0.0..=1.0).contains(v)));
     }
+    // Canonical normals: unit vectors, mostly pointing away from the body's centroid (the inner
+    // sides of the limbs face it: about 70 % point away on this body, flipped normals 30 %).
+    let normals =
+        read_ply_columns(&run_dir.join("human_canonical.ply"), &["nx", "ny", "nz"]).unwrap();
+    let means = splatzoo_train::host_f32(&human.means);
+    let centroid: Vec<f32> = (0..3)
+        .map(|c| means.iter().skip(c).step_by(3).sum::<f32>() / human.len() as f32)
+        .collect();
+    let mut outward = 0;
+    for k in 0..human.len() {
+        let n = [normals[0][k], normals[1][k], normals[2][k]];
+        let length = n.iter().map(|v| v * v).sum::<f32>().sqrt();
+        assert!((length - 1.0).abs() < 1e-3, "normal {k}: {n:?}");
+        let away: f32 = (0..3)
+            .map(|c| n[c] * (means[3 * k + c] - centroid[c]))
+            .sum();
+        outward += usize::from(away > 0.0);
+    }
+    let share = outward as f64 / human.len() as f64;
+    assert!(
+        share > 0.6,
+        "only {share} of the canonical normals point outwards"
+    );
     assert_eq!(renders_decode(&run_dir.join("renders")), 2);
     for graph in ["visibility", "shadow", "materials"] {
         assert!(

@@ -3,7 +3,7 @@
 //! - `scene.ply` (INRIA layout, the scene's SH) and `human_canonical.ply` (the stage-2
 //!   human in canonical space, its colour slot written as the DC colour: linear albedo with
 //!   the light volume, the display colour without; `albedo_0..2`, `metallic` and `roughness`
-//!   as extra properties);
+//!   as extra properties, the refined canonical mesh's normals in `nx ny nz`);
 //! - `posed_frame_<t>.ply`: scene and human together at the first held-out frame, the human's
 //!   shaded colour baked into its DC and its material maps as extra properties (`human`,
 //!   `albedo_0..2`, `metallic`, `roughness`; normals in `nx ny nz`; zeros on the scene's rows);
@@ -15,8 +15,8 @@ use crate::IllumError;
 use crate::onnx::{IllumNetworks, export};
 use crate::trainer::IllumTrainer;
 use burn::module::Module;
-use burn::tensor::Tensor;
 use burn::tensor::activation::sigmoid;
+use burn::tensor::{Tensor, TensorData};
 use splatzoo_datasets::DatasetError;
 use splatzoo_rasterizer::Splats;
 use splatzoo_rasterizer::sh::SH_C0;
@@ -122,10 +122,16 @@ pub fn write_outputs(
         } else {
             vec![0.0; 2 * n]
         };
+        // Canonical normals: the refined canonical mesh's vertex normals carried by the binding
+        // (as the posed frames' are from the posed mesh).
+        let vertices: Vec<f32> = stage2.canonical.iter().flatten().copied().collect();
+        let rows = stage2.canonical.len();
+        let mesh = Tensor::<2>::from_data(TensorData::new(vertices, [rows, 3]), &trainer.autodiff);
+        let normals = crate::stage2::posed_normals(&stage2.binding, &trainer.mesh, mesh);
         let maps = HumanMaps {
             material,
             albedo: host_f32(&set.sh_dc.clone().reshape([n, 3]).clamp(0.0, 1.0)),
-            normals: None,
+            normals: Some(host_f32(&normals.inner())),
         };
         maps.write(&run.join("human_canonical.ply"), &canonical, None)?;
         written.push("human_canonical.ply".into());

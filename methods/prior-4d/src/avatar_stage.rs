@@ -17,6 +17,7 @@ use splatzoo_rasterizer::{ColorMode, RasterSettings};
 use splatzoo_train::densify::{DensifyConfig, Strategy};
 use splatzoo_train::harness::EpochOrder;
 use splatzoo_train::loss::{masked_psnr, photometric, scalar};
+use splatzoo_train::ply::read_ply;
 use splatzoo_train::scene::{SceneNode, SkinnedGaussianNode, StepEnd};
 
 /// The scan avatar's checkpoint prefix.
@@ -58,7 +59,7 @@ impl AvatarStage {
         let (test, train): (Vec<usize>, Vec<usize>) =
             (0..views).partition(|k| k % config.holdout_every == config.holdout_every - 1);
         let trained = (0..views).map(|k| !test.contains(&k)).collect();
-        let node = SkinnedGaussianNode::new(
+        let mut node = SkinnedGaussianNode::new(
             SCAN_AVATAR,
             model,
             &capture.scan_prior,
@@ -73,6 +74,12 @@ impl AvatarStage {
             seed ^ 0xA7A7_0001,
             device,
         )?;
+        if let Some(path) = &config.initial_ply {
+            let what = format!("avatar.initial_ply {}", path.display());
+            let set = read_ply(path, device)
+                .map_err(|e| Prior4dError::input(what.clone(), e.to_string()))?;
+            node.replace_canonical(set, &what)?;
+        }
         if node.gaussians() != model.vertex_count() {
             return Err(Prior4dError::input(
                 "avatar body",

@@ -30,6 +30,8 @@ use splatzoo_train::avatar::{mpjpe_mm, track_joints};
 #[serde(deny_unknown_fields, default)]
 pub struct BodyFitConfig {
     /// Refine the acting prior on the keypoints (false: stage D starts from the prior as given).
+    /// On by default, as the paper fits its body to keypoints: on the default run it lowers
+    /// stage D's normal error from 39.6° to 32.2° and MPJPE from 103 to 78 mm (README).
     pub keypoints: bool,
     /// Adam steps per frame.
     pub iterations: usize,
@@ -45,7 +47,7 @@ pub struct BodyFitConfig {
 impl Default for BodyFitConfig {
     fn default() -> Self {
         Self {
-            keypoints: false,
+            keypoints: true,
             iterations: 100,
             robust_sigma_px: 100.0,
             prior_weight: 100.0,

@@ -38,6 +38,10 @@ pub struct SceneStageConfig {
     /// The video stage A trains on: the scene scan (the paper) or the acting video (Fig. 5's
     /// "without the scene prior"; [`crate::sources`]).
     pub source: PriorSource,
+    /// Stage A starts from this INRIA `.ply` (a `train-3dgs` point cloud, an earlier run's
+    /// `scene_prior.ply`) instead of the scan's points, at full SH degree; with `steps = 0`
+    /// stage D starts from it as it is.
+    pub initial_ply: Option<PathBuf>,
 }
 
 impl Default for SceneStageConfig {
@@ -58,6 +62,7 @@ impl Default for SceneStageConfig {
                 ..DensifyConfig::default()
             },
             source: PriorSource::Scan,
+            initial_ply: None,
         }
     }
 }
@@ -78,6 +83,10 @@ pub struct AvatarStageConfig {
     /// The video stage B trains on: the human scan (the paper) or the acting video (Fig. 5's
     /// "without the avatar prior"; [`crate::sources`]).
     pub source: PriorSource,
+    /// The avatar's canonical Gaussians from this `.ply` (an earlier run's
+    /// `avatar_canonical.ply`: one row per vertex of the body at `subdivisions`, canonical
+    /// space, metres) instead of the body's vertices; with `steps = 0` stage D starts from it.
+    pub initial_ply: Option<PathBuf>,
 }
 
 impl Default for AvatarStageConfig {
@@ -94,6 +103,7 @@ impl Default for AvatarStageConfig {
             rates: LearningRates::default(),
             holdout_every: 6,
             source: PriorSource::Scan,
+            initial_ply: None,
         }
     }
 }
@@ -334,6 +344,7 @@ impl MethodConfig for Prior4dConfig {
             ));
         }
         if self.scene.densify.strategy != Strategy::None
+            && self.scene.steps > 0
             && self.scene.densify.stop > self.scene.steps
         {
             return bad(format!(

@@ -119,15 +119,28 @@ impl Prior4d {
         let scene = SceneStage::new(&capture, &config.scene, config.seed, device)?;
         let avatar = AvatarStage::new(&capture, &model, &config.avatar, config.seed, device)?;
         let mut decisions = capture.decisions.clone();
+        let scene_start = match &config.scene.initial_ply {
+            Some(path) => format!(
+                "from {} ({} Gaussians)",
+                path.display(),
+                scene.node.gaussians()
+            ),
+            None => format!("from {} points", capture.scene_points.len()),
+        };
+        let avatar_start = match &config.avatar.initial_ply {
+            Some(path) => format!("from {}", path.display()),
+            None => "built-in body".to_owned(),
+        };
         decisions.push(format!(
-            "stage A: scene prior on {} views ({} held out), {} starting points; stage B: \
-             avatar prior of {} Gaussians (built-in body, {} subdivision(s)) on {} views ({} \
-             held out); stage D on {} acting frames",
+            "stage A: scene prior {scene_start}, {} steps on {} views ({} held out); stage B: \
+             avatar prior of {} Gaussians ({avatar_start}, {} subdivision(s)), {} steps on {} \
+             views ({} held out); stage D on {} acting frames",
+            config.scene.steps,
             scene.train.len(),
             scene.test.len(),
-            capture.scene_points.len(),
             model.vertex_count(),
             config.avatar.subdivisions,
+            config.avatar.steps,
             avatar.train.len(),
             avatar.test.len(),
             capture.acting.len()

@@ -14,6 +14,7 @@ use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render, rasterize};
 use splatzoo_train::gaussians::GaussianSet;
 use splatzoo_train::harness::{EpochOrder, read_back};
 use splatzoo_train::loss::{photometric, psnr, scalar, ssim};
+use splatzoo_train::ply::read_ply;
 use splatzoo_train::scene::{FrameContext, FrameQuery, GaussianNode, SceneNode, StepEnd};
 
 /// The scene node's checkpoint prefix.
@@ -87,14 +88,27 @@ impl SceneStage {
         seed: u64,
         device: &Device,
     ) -> Result<Self, Prior4dError> {
-        let p = &capture.scene_points;
-        if p.is_empty() {
-            return Err(Prior4dError::input(
-                "scene scan",
-                "no points to start the scene prior from",
-            ));
-        }
-        let set = GaussianSet::from_points(&p.positions, &p.colours, &p.sigmas, device);
+        let set = match &config.initial_ply {
+            Some(path) => {
+                let what = format!("scene.initial_ply {}", path.display());
+                let set = read_ply(path, device)
+                    .map_err(|e| Prior4dError::input(what.clone(), e.to_string()))?;
+                if set.is_empty() {
+                    return Err(Prior4dError::input(what, "no Gaussians"));
+                }
+                set
+            }
+            None => {
+                let p = &capture.scene_points;
+                if p.is_empty() {
+                    return Err(Prior4dError::input(
+                        "scene scan",
+                        "no points to start the scene prior from",
+                    ));
+                }
+                GaussianSet::from_points(&p.positions, &p.colours, &p.sigmas, device)
+            }
+        };
         let cameras: Vec<Camera> = capture.scene_scan.iter().map(|v| v.camera).collect();
         let extent = camera_extent(&cameras);
         let node = GaussianNode::new(
@@ -154,8 +168,12 @@ impl SceneStage {
         })
     }
 
-    /// The SH degree trained at stage step `step`.
+    /// The SH degree trained at stage step `step`: rising from 0 on points, all of it from
+    /// the start on a `.ply` (`initial_ply`), which carries every coefficient.
     pub fn sh_degree(config: &SceneStageConfig, step: usize) -> u32 {
+        if config.initial_ply.is_some() {
+            return config.sh_degree;
+        }
         ((step / config.sh_degree_every.max(1)) as u32).min(config.sh_degree)
     }
 

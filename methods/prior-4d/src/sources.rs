@@ -9,8 +9,7 @@
 //!   starting from the acting video's own points ([`Prior4dCapture::acting_points`]);
 //! - **avatar**: the acting frames in each frame's camera frame (identity extrinsics, metres:
 //!   how ExAvatar fits a monocular video) with the person masks and the camera-space body prior
-//!   (after stage C's keypoint refinement when that is on). Furniture hides the person at
-//!   times, so the avatar also learns to stay out of what hides it.
+//!   (after stage C's keypoint refinement when that is on).
 //!
 //! Every acting frame is offered to the stage, which holds out its own share as it does on a
 //! scan; the evaluation camera stays unseen.

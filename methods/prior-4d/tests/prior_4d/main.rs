@@ -2,8 +2,10 @@
 //! Huber terms against hand-computed values, the locator's σ-invariance, camera refinement,
 //! rendered normals against analytic ones, the pose-dependent offsets' place in Eq. 2, and
 //! stage C's keypoint fit ([`keypoints`]), and the priors taken from the acting video
-//! ([`sources`]).
+//! ([`sources`]); stage D on every backend ([`backends`]) and from user `.ply` files
+//! ([`start_from_ply`]).
 
+mod backends;
 mod data;
 mod extremes;
 mod geometry;
@@ -12,6 +14,7 @@ mod objective;
 mod offsets;
 mod plane;
 mod sources;
+mod start_from_ply;
 mod trainer;
 
 use burn::tensor::Tensor;

@@ -7,7 +7,7 @@ use splatzoo_prior_4d::config::Prior4dConfig;
 use splatzoo_train::harness::Method;
 use splatzoo_train::host_f32;
 
-/// A run small enough for a test: 80×60, 8 acting frames, 40 + 30 + 30 steps.
+/// A run small enough for a test: 80×60, 8 acting frames, 40 + 30 + 30 steps, no keypoint fit.
 pub fn tiny_config() -> Prior4dConfig {
     let mut c = Prior4dConfig::default();
     c.data.width = 80;
@@ -26,6 +26,9 @@ pub fn tiny_config() -> Prior4dConfig {
     c.plane.min_opacity = 0.05;
     c.joint.eval_stride = 4;
     c.iterations = 100;
+    // Stage C's keypoint fit has its own tests (`keypoints`); off here to keep each tiny run
+    // short.
+    c.body_fit.keypoints = false;
     c
 }
 

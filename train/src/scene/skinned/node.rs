@@ -14,7 +14,7 @@ use crate::densify::{DensifyConfig, DensifyReport};
 use crate::error::TrainError;
 use crate::gaussians::GaussianSet;
 use crate::host_f32;
-use crate::optimizer::LearningRates;
+use crate::optimizer::{GaussianOptimizer, LearningRates};
 use crate::scene::{FrameContext, FrameQuery, GaussianNode, NodeOutput, SceneNode, StepEnd};
 use burn::tensor::activation::softmax;
 use burn::tensor::{Device, Int, Tensor, TensorData};
@@ -232,6 +232,24 @@ impl SkinnedGaussianNode {
     /// The canonical Gaussians (plain tensors).
     pub fn canonical_set(&self) -> &GaussianSet {
         &self.canonical.set
+    }
+
+    /// Replaces the canonical Gaussians by `set` row for row (a saved avatar's, read from its
+    /// `.ply`): the anchors, skinning weights and joint regressor stay, the optimiser's moments
+    /// start afresh. `what` names the source in the error when the row counts differ.
+    pub fn replace_canonical(&mut self, set: GaussianSet, what: &str) -> Result<(), TrainError> {
+        let rows = self.canonical.set.len();
+        if set.len() != rows {
+            return Err(TrainError::Config(format!(
+                "{what}: {} Gaussians, but the avatar `{}` has {rows} (one per anchor)",
+                set.len(),
+                self.canonical.name()
+            )));
+        }
+        let optimizer = &self.canonical.optimizer;
+        self.canonical.optimizer = GaussianOptimizer::new(&set, optimizer.rates, optimizer.extent);
+        self.canonical.set = set;
+        Ok(())
     }
 
     /// `[1, S]` the avatar's shape coefficients.
