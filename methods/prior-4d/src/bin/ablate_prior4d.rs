@@ -68,6 +68,14 @@ fn prior_overrides(sets: &[&str]) -> Vec<String> {
         .collect()
 }
 
+/// Whether an arm changes stage C's σ₀, so its stage-D start is not its priors' alone (the
+/// loss weights and switches leave the start as it is: the offset heads and the camera
+/// corrections start at zero).
+fn moves_sigma0(sets: &[&str]) -> bool {
+    sets.iter()
+        .any(|s| s.starts_with("joint.sigma") || s.starts_with("joint.initial_sigma"))
+}
+
 /// Stages A and B under `base` with `overrides`: the checkpoint stage D starts from.
 fn train_priors(
     base: &Prior4dConfig,
@@ -164,7 +172,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
             let row = csv_row(name, seed, &scores, seconds);
             eprintln!("{row}");
             lines.push(row);
-            if priors[group].2.is_none() {
+            if priors[group].2.is_none() && !moves_sigma0(sets) {
                 // Stage D's start: these priors alone.
                 priors[group].2 = method.priors_only.clone();
             }
