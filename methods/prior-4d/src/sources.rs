@@ -14,9 +14,9 @@
 //! Every acting frame is offered to the stage, which holds out its own share as it does on a
 //! scan; the evaluation camera stays unseen.
 
+use crate::camera::camera_at_origin;
 use crate::data::{HumanScanView, Prior4dCapture, SceneScanView};
 use serde::{Deserialize, Serialize};
-use splatzoo_rasterizer::Camera;
 
 /// The video a prior is trained on.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -27,18 +27,6 @@ pub enum PriorSource {
     Scan,
     /// The acting video (Fig. 5's "without the prior"; the ExAvatar-like baseline).
     Acting,
-}
-
-/// `camera`'s intrinsics and clipping with the identity pose: its own frame as the world.
-pub fn in_own_frame(camera: &Camera) -> Camera {
-    Camera {
-        world_to_camera: [
-            [1.0, 0.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0, 0.0],
-            [0.0, 0.0, 1.0, 0.0],
-        ],
-        ..*camera
-    }
 }
 
 impl Prior4dCapture {
@@ -74,7 +62,7 @@ impl Prior4dCapture {
             .acting
             .iter()
             .map(|frame| HumanScanView {
-                camera: in_own_frame(&frame.camera),
+                camera: camera_at_origin(&frame.camera),
                 image: frame.image.clone(),
                 mask: frame.mask.clone(),
             })
