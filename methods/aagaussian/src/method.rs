@@ -250,8 +250,8 @@ impl Method for Aag {
         self.decisions.clone()
     }
 
-    /// The latent encoder where the guidance model denoises latents, the facial loss and the
-    /// depth branch by their weights.
+    /// The latent encoder where the guidance model denoises latents, the depth branch where it
+    /// denoises depth, the facial loss by its weight.
     fn modules(&self) -> Vec<ModuleChoice> {
         let c = &self.trainer.config;
         vec![
@@ -270,11 +270,20 @@ impl Method for Aag {
                 "face.weight > 0",
                 c.face.weight > 0.0,
             ),
-            ModuleChoice::configured(
-                "depth branch of SDS (Eq. 5)",
-                "sds.lambda_depth > 0",
-                c.sds.lambda_depth > 0.0,
-            ),
+            ModuleChoice {
+                module: "depth branch of SDS (Eq. 5)".into(),
+                enabled: self.trainer.depth_branch(),
+                reason: if self.trainer.depth_branch() {
+                    format!(
+                        "the guidance model denoises depth beside RGB (2 branches), weighted by \
+                         sds.lambda_depth = {}",
+                        c.sds.lambda_depth
+                    )
+                } else {
+                    "the guidance model denoises RGB only (1 branch): no depth is encoded".into()
+                },
+                forced_by: None,
+            },
         ]
     }
 

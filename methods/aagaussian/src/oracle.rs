@@ -209,8 +209,14 @@ impl ScoreModel for MixtureOracle {
             .map(|camera| {
                 (0..k)
                     .map(|label| {
+                        // A one-branch model denoises the targets' RGB alone.
                         let branches = self.targets.target(label, camera);
-                        branches.into_iter().flatten().map(f64::from).collect()
+                        branches
+                            .into_iter()
+                            .take(self.branches)
+                            .flatten()
+                            .map(f64::from)
+                            .collect()
                     })
                     .collect()
             })

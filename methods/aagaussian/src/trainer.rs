@@ -149,6 +149,13 @@ impl AagTrainer {
         }
     }
 
+    /// Whether SDS has its depth branch (Eq. 5): only where the guidance model denoises depth
+    /// beside RGB. A one-branch model's renders are never depth-encoded (with a VAE, one
+    /// encoder pass of every view a step saved).
+    pub fn depth_branch(&self) -> bool {
+        self.model.branches() == 2
+    }
+
     /// Whether the face term is on at step `step` (Eq. 6's λ₃ = 0 before its start).
     pub fn face_active(&self, step: usize) -> bool {
         self.config.face.weight > 0.0 && step >= self.config.face.start
@@ -210,22 +217,19 @@ impl AagTrainer {
         let cameras: Vec<Camera> = views.iter().map(|v| v.camera).collect();
         let mut renders = render_views(&splats, &cameras)?;
         // z = latent_scale · E(x): the VAE (its scaling factor is the model's) or the identity.
-        let (z_rgb, z_depth) = match &self.vae {
-            Some(vae) => (
-                vae.encode(rgb_branch(&renders)),
-                vae.encode(depth_branch(&renders).repeat_dim(1, 3)),
-            ),
-            None => {
-                let scale = self.model.latent_scale();
-                (
-                    rgb_branch(&renders).mul_scalar(scale),
-                    depth_branch(&renders).mul_scalar(scale),
-                )
-            }
+        // The depth branch is encoded only where the guidance model denoises depth (Eq. 5).
+        let scale = self.model.latent_scale();
+        let z_rgb = match &self.vae {
+            Some(vae) => vae.encode(rgb_branch(&renders)),
+            None => rgb_branch(&renders).mul_scalar(scale),
         };
+        let z_depth = self.depth_branch().then(|| match &self.vae {
+            Some(vae) => vae.encode(depth_branch(&renders).repeat_dim(1, 3)),
+            None => depth_branch(&renders).mul_scalar(scale),
+        });
         let mut inputs = vec![host_batch(&z_rgb)];
-        if self.model.branches() == 2 {
-            inputs.push(host_batch(&z_depth));
+        if let Some(z) = &z_depth {
+            inputs.push(host_batch(z));
         }
         let sds_views: Vec<_> = views.iter().map(|v| v.sds_view()).collect();
         let guidance = config.sds.guidance(
@@ -244,7 +248,7 @@ impl AagTrainer {
             ..StepRecord::default()
         };
         let mut loss = sds_rgb;
-        if let Some(g) = guidance.grads.get(1) {
+        if let (Some(g), Some(z_depth)) = (guidance.grads.get(1), z_depth) {
             let sds_depth = crate::sds::surrogate(z_depth, g, config.sds.lambda_depth)?;
             record.sds_depth = splatzoo_train::loss::scalar(sds_depth.clone());
             loss = loss + sds_depth;

@@ -6,8 +6,10 @@
 //! - which 25: the paper's "closest" by `|distance|` picks the vertices where the sole crosses
 //!   the floor once a foot has sunk in, and the loss then reads zero while the foot penetrates;
 //!   the default takes the 25 *lowest* by signed distance ([`ContactSelect`]);
-//! - the units of `Δ_c`: metres on the body, converted to scene units by σ (detached) by
-//!   default, or scene units as written ([`MarginUnits`]).
+//! - the units the term is read in ([`ContactUnits`]): by default metres on the body — `Δ_c`
+//!   is 2 cm of the body (`× σ` into the scene) and the residual is divided by σ (detached), so
+//!   the term's weight means the same in a scene of any unit; or scene units as written, where
+//!   the same foot error weighs σ times more in a scene whose unit is σ times smaller.
 //!
 //! Foot vertices are those whose dominant skinning weight is on an ankle or foot joint (SMPL
 //! joints 7, 8, 10, 11) and whose rest height is at most their ankle's + 2 cm: sole, heel and
@@ -37,13 +39,13 @@ pub enum ContactSelect {
     Closest,
 }
 
-/// The units `margin` is given in.
+/// The units Eq. 7 is read in: its margin `Δ_c` and its residual.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum MarginUnits {
-    /// Metres on the body, `× σ` into scene units.
+pub enum ContactUnits {
+    /// Metres on the body: `Δ_c · σ` in the scene, the residual `÷ σ` (σ detached).
     Metres,
-    /// Scene units as they are.
+    /// Scene units as they are, margin and residual.
     Scene,
 }
 
@@ -55,7 +57,7 @@ pub struct ContactConfig {
     pub count: usize,
     /// `Δ_c`.
     pub margin: f64,
-    pub margin_units: MarginUnits,
+    pub units: ContactUnits,
     pub select: ContactSelect,
 }
 
@@ -64,7 +66,7 @@ impl Default for ContactConfig {
         Self {
             count: 25,
             margin: 0.02,
-            margin_units: MarginUnits::Metres,
+            units: ContactUnits::Metres,
             select: ContactSelect::Lowest,
         }
     }
@@ -73,9 +75,18 @@ impl Default for ContactConfig {
 impl ContactConfig {
     /// `Δ_c` in scene units at global scale `sigma`.
     pub fn margin_in_scene(&self, sigma: f64) -> f64 {
-        match self.margin_units {
-            MarginUnits::Metres => self.margin * sigma,
-            MarginUnits::Scene => self.margin,
+        match self.units {
+            ContactUnits::Metres => self.margin * sigma,
+            ContactUnits::Scene => self.margin,
+        }
+    }
+
+    /// What the scene-unit residual is multiplied by at global scale `sigma`: `1 / σ` in
+    /// metres, 1 in scene units.
+    pub fn residual_factor(&self, sigma: f64) -> f64 {
+        match self.units {
+            ContactUnits::Metres => 1.0 / sigma,
+            ContactUnits::Scene => 1.0,
         }
     }
 }
@@ -110,7 +121,7 @@ pub fn foot_vertices(model: &BodyModel) -> Vec<usize> {
 
 /// One evaluation of Eq. 7.
 pub struct ContactTerm {
-    /// `[1]` the loss.
+    /// `[1]` the loss, in [`ContactConfig::units`].
     pub loss: Tensor<1>,
     /// Rows of the input that were selected, in selection order.
     pub selected: Vec<usize>,
@@ -118,13 +129,13 @@ pub struct ContactTerm {
     pub distances: Vec<f64>,
 }
 
-/// Eq. 7 on foot vertices `[F, 3]` in the world (scene units) against the constant `plane`,
-/// with `margin` already in scene units ([`ContactConfig::margin_in_scene`]).
+/// Eq. 7 on foot vertices `[F, 3]` in the world (scene units) against the constant `plane`, at
+/// global scale `sigma` (a detached value: it converts units, [`ContactConfig::units`]).
 pub fn contact_loss(
     feet: Tensor<2>,
     plane: &Plane,
     config: &ContactConfig,
-    margin: f64,
+    sigma: f64,
 ) -> Result<ContactTerm, Prior4dError> {
     let [f, d] = feet.dims();
     if d != 3 || f == 0 {
@@ -133,12 +144,18 @@ pub fn contact_loss(
             format!("foot vertices must be [F ≥ 1, 3], got [{f}, {d}]"),
         ));
     }
-    if config.count == 0 || !(margin.is_finite() && margin >= 0.0) {
+    let margin = config.margin_in_scene(sigma);
+    let factor = config.residual_factor(sigma);
+    if config.count == 0
+        || !(margin.is_finite() && margin >= 0.0)
+        || !(sigma.is_finite() && sigma > 0.0 && factor.is_finite())
+    {
         return Err(Prior4dError::input(
             "contact loss",
             format!(
-                "needs count ≥ 1 and a finite margin ≥ 0, got count {} and margin {margin}",
-                config.count
+                "needs count ≥ 1, a finite margin ≥ 0 and a finite σ > 0, got count {}, margin \
+                 {} and σ {sigma}",
+                config.count, config.margin
             ),
         ));
     }
@@ -176,7 +193,10 @@ pub fn contact_loss(
     order.truncate(config.count.min(f));
     let idx: Vec<i64> = order.iter().map(|&k| k as i64).collect();
     let idx = Tensor::<1, Int>::from_data(TensorData::new(idx, [order.len()]), &device);
-    let loss = (signed.select(0, idx).abs() - margin).clamp_min(0.0).sum();
+    let loss = (signed.select(0, idx).abs() - margin)
+        .clamp_min(0.0)
+        .sum()
+        .mul_scalar(factor);
     Ok(ContactTerm {
         loss,
         selected: order,

@@ -375,8 +375,7 @@ impl JointStage {
             let feet_cam = posed.splats.means.select(0, idx);
             let sigma = s.clone().exp().reshape([1, 1]);
             let feet = detached.to_world(feet_cam * sigma);
-            let margin = j.contact_rule.margin_in_scene(self.sigma());
-            let contact = contact_loss(feet, self.plane(), &j.contact_rule, margin)?.loss;
+            let contact = contact_loss(feet, self.plane(), &j.contact_rule, self.sigma())?.loss;
             terms.contact = scalar(contact.clone().inner());
             loss = loss + contact * j.contact;
         }

@@ -17,7 +17,7 @@
 //! | Eq. 4 | front-to-back compositing of scene and avatar | [`render::render_layers`] (one call, seven feature channels) |
 //! | Eq. 5 | alpha-blended avatar normals from the posed mesh | [`splatzoo_models::normals::vertex_normals`], [`render::render_layers`] |
 //! | Eq. 6 | `‖N̂ − N‖₁ + ‖1 − N̂ᵀN‖₁` | [`loss::normal_loss`] |
-//! | Eq. 7 | `Σ max(0, |nᵀV + d| − Δ_c)` over the `N_c` foot vertices nearest π | [`contact::contact_loss`], [`contact::foot_vertices`] |
+//! | Eq. 7 | `Σ max(0, |nᵀV + d| − Δ_c)` over the `N_c` foot vertices nearest π, read in metres (÷ σ) | [`contact::contact_loss`], [`contact::foot_vertices`] |
 //! | §4.2 | the body model fitted to 2-D keypoints (refining the regressor's prior) | [`body_fit::refine_on_keypoints`] over [`splatzoo_models::body::fit::fit_body`] |
 //! | §4.2 | RANSAC floor plane π; initial σ₀ (derived: the paper gives no procedure) | [`plane::ransac_plane`], [`plane::initial_scale`] |
 //! | §4.4.4 | Huber prior on colour and scale (no formula in the paper) | [`loss::huber_prior`] |

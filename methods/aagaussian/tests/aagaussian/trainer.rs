@@ -164,3 +164,29 @@ fn an_avatar_pruned_to_nothing_is_an_error() {
     let message = outcome.expect_err("pruned to nothing after step 4");
     assert!(message.contains("densify.min_opacity"), "{message}");
 }
+
+/// Only what the guidance needs (issue 20's rule): a two-branch model gets the depth branch
+/// (its SDS term is non-zero and the module is on); a one-branch model's renders are never
+/// depth-encoded (no depth term) and the decision says why.
+#[test]
+fn the_depth_branch_follows_the_guidance_model() {
+    let device = Backend::Flex.device();
+    for branches in [1, 2] {
+        let mut config = tiny(crate_seed() % 1000);
+        config.oracle.branches = branches;
+        let mut method = Aag::new(config, &device).expect("assembles");
+        let depth = method
+            .modules()
+            .into_iter()
+            .find(|m| m.module.starts_with("depth branch"))
+            .expect("the depth branch's decision");
+        assert_eq!(depth.enabled, branches == 2, "{depth:?}");
+        let record = method.trainer.train_step().expect("a step");
+        if branches == 2 {
+            assert!(record.sds_depth > 0.0, "{}", record.sds_depth);
+        } else {
+            assert_eq!(record.sds_depth, 0.0);
+            assert!(depth.reason.contains("RGB only"), "{}", depth.reason);
+        }
+    }
+}

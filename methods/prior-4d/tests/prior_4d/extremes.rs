@@ -43,7 +43,8 @@ fn extreme_global_scales_stay_finite() {
             image.iter().all(|v| v.is_finite()),
             "seed {seed}, s {s}: image"
         );
-        let contact = contact_loss(placed.means, &floor, &ContactConfig::default(), 0.02);
+        let sigma = f64::from(s).exp();
+        let contact = contact_loss(placed.means, &floor, &ContactConfig::default(), sigma);
         let loss = match contact {
             Ok(term) => {
                 let v = values(term.loss.clone())[0];

@@ -7,7 +7,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::body::builtin_body;
 use splatzoo_prior_4d::camera::RigidFrame;
 use splatzoo_prior_4d::contact::{
-    ContactConfig, ContactSelect, LEFT_ANKLE, LEFT_FOOT, MarginUnits, RIGHT_ANKLE, RIGHT_FOOT,
+    ContactConfig, ContactSelect, ContactUnits, LEFT_ANKLE, LEFT_FOOT, RIGHT_ANKLE, RIGHT_FOOT,
     contact_loss, foot_vertices,
 };
 use splatzoo_prior_4d::locate::place;
@@ -32,7 +32,7 @@ fn config(count: usize, select: ContactSelect) -> ContactConfig {
     ContactConfig {
         count,
         margin: 0.02,
-        margin_units: MarginUnits::Scene,
+        units: ContactUnits::Scene,
         select,
     }
 }
@@ -46,7 +46,7 @@ fn contact_loss_matches_hand_computed_values() {
         points(&heights, &device),
         &floor(),
         &config(5, ContactSelect::Lowest),
-        0.02,
+        1.0,
     )
     .unwrap();
     // (0.05 − 0.02) + 0 + (0.03 − 0.02) + 0 + 0.
@@ -56,7 +56,7 @@ fn contact_loss_matches_hand_computed_values() {
         points(&heights, &device),
         &floor(),
         &config(2, ContactSelect::Lowest),
-        0.02,
+        1.0,
     )
     .unwrap();
     assert_eq!(lowest.selected, vec![2, 3]);
@@ -65,18 +65,63 @@ fn contact_loss_matches_hand_computed_values() {
         points(&heights, &device),
         &floor(),
         &config(2, ContactSelect::Closest),
-        0.02,
+        1.0,
     )
     .unwrap();
     assert_eq!(closest.selected, vec![4, 1]);
     assert_eq!(values(closest.loss)[0], 0.0);
     // Margins in metres scale with σ; in scene units they do not.
     let metres = ContactConfig {
-        margin_units: MarginUnits::Metres,
+        units: ContactUnits::Metres,
         ..ContactConfig::default()
     };
     assert!((metres.margin_in_scene(0.7) - 0.014).abs() < 1e-12);
     assert_eq!(config(1, ContactSelect::Lowest).margin_in_scene(0.7), 0.02);
+}
+
+/// Read in metres, Eq. 7 is the same number in a scene of any unit: the same feet and floor in
+/// units `k` times smaller (σ and every coordinate × k) give the same loss, by hand at k = 1,
+/// on fresh random heights and units from 1e-3 to 1e3. In scene units it is the literal sum in
+/// the scene's numbers, which changes with k.
+#[test]
+fn contact_loss_in_metres_does_not_depend_on_the_scene_unit() {
+    let seed = fresh_seed();
+    let mut rng = Rng(seed);
+    let device = Device::flex();
+    let heights: Vec<f64> = (0..30).map(|_| rng.range(-0.08, 0.08)).collect();
+    let metres = ContactConfig {
+        count: 30,
+        units: ContactUnits::Metres,
+        ..ContactConfig::default()
+    };
+    let want: f64 = heights.iter().map(|h| (h.abs() - 0.02).max(0.0)).sum();
+    for k in [1e-3, 0.37, 1.0, 2.9, 1e3] {
+        let scaled: Vec<f64> = heights.iter().map(|h| h * k).collect();
+        let floor = Plane::new([0.0, 1.0, 0.0], 0.0).unwrap();
+        let eval = |cfg: &ContactConfig| {
+            f64::from(
+                values(
+                    contact_loss(points(&scaled, &device), &floor, cfg, k)
+                        .unwrap()
+                        .loss,
+                )[0],
+            )
+        };
+        let got = eval(&metres);
+        assert!(
+            (got - want).abs() <= 1e-4 * want.max(1e-3),
+            "seed {seed}, unit ×{k}: {got} against {want}"
+        );
+        let scene = eval(&ContactConfig {
+            units: ContactUnits::Scene,
+            ..metres
+        });
+        let literal: f64 = scaled.iter().map(|h| (h.abs() - 0.02).max(0.0)).sum();
+        assert!(
+            (scene - literal).abs() <= 1e-4 * literal.max(1e-3),
+            "seed {seed}, unit ×{k}: scene units {scene} against {literal}"
+        );
+    }
 }
 
 /// A sole sunk 10 cm into the floor: the paper's closest-|d| rule picks the vertices where the
@@ -92,7 +137,7 @@ fn closest_rule_reads_zero_while_a_foot_sinks_in() {
                 points(&heights, &device),
                 &floor(),
                 &config(25, select),
-                0.02,
+                1.0,
             )
             .unwrap()
             .loss,
@@ -109,23 +154,32 @@ fn closest_rule_reads_zero_while_a_foot_sinks_in() {
 fn contact_loss_rejects_bad_inputs() {
     let device = Device::flex();
     let nan = points(&[0.0, f64::NAN], &device);
-    let err = contact_loss(nan, &floor(), &config(2, ContactSelect::Lowest), 0.02)
+    let err = contact_loss(nan, &floor(), &config(2, ContactSelect::Lowest), 1.0)
         .err()
         .expect("a NaN foot is an error");
     assert!(err.to_string().contains("foot vertex 1"), "{err}");
     let empty = Tensor::<2>::zeros([0, 3], &device);
-    assert!(contact_loss(empty, &floor(), &config(2, ContactSelect::Lowest), 0.02).is_err());
+    assert!(contact_loss(empty, &floor(), &config(2, ContactSelect::Lowest), 1.0).is_err());
     let one = points(&[0.0], &device);
     assert!(
         contact_loss(
             one.clone(),
             &floor(),
             &config(0, ContactSelect::Lowest),
-            0.02
+            1.0
         )
         .is_err()
     );
-    assert!(contact_loss(one, &floor(), &config(1, ContactSelect::Lowest), f64::NAN).is_err());
+    assert!(
+        contact_loss(
+            one.clone(),
+            &floor(),
+            &config(1, ContactSelect::Lowest),
+            f64::NAN
+        )
+        .is_err()
+    );
+    assert!(contact_loss(one, &floor(), &ContactConfig::default(), 0.0).is_err());
 }
 
 /// The built-in body's contact candidates: both feet, all skinned to an ankle or foot, none
@@ -193,7 +247,7 @@ fn contact_gradient_reaches_the_global_scale() {
     let s = Tensor::<1>::from_floats([sigma.ln() as f32], &device).require_grad();
     let placed = place(splats, s.clone(), &frame);
     let cfg = config(25, ContactSelect::Lowest);
-    let term = contact_loss(placed.means, &floor(), &cfg, 0.02).unwrap();
+    let term = contact_loss(placed.means, &floor(), &cfg, sigma).unwrap();
     let grads = term.loss.backward();
     let got = f64::from(values(s.grad(&grads).expect("σ gets a gradient"))[0]);
     // World height of camera-space v: 1.5 − σ v_y (the camera's y axis points down).
