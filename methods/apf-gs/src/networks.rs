@@ -6,7 +6,9 @@
 //!   reliability logit, whose bias starts at `logit(σ₀)` (σ₀ = 0.8, the paper's "high prior
 //!   confidence") and whose weights start ×1e-3;
 //! - the residual field `F_φ` (Eq. 5): `[γ(μ̄) ‖ c_t]` → `(δμ, δq, δs)`, its head zero so that
-//!   `Δ ≡ 0` at step 0;
+//!   `Δ ≡ 0` at step 0; `γ` is NeRF's frequency encoding, or (the spec's speed knob,
+//!   `network.position_encoding = "hash"`) a learned multi-resolution hash encoding, the
+//!   engine's, whose table the field owns and trains;
 //! - the accessory network `D_ψ` (Eq. 8's "general deformable Gaussian model"):
 //!   `[γ(x̄) ‖ γ(t) ‖ e_a]` → `(δx, δq)`, its head zero.
 //!
@@ -19,8 +21,19 @@ use burn::nn::{Linear, LinearConfig, PaddingConfig2d};
 use burn::tensor::activation::relu;
 use burn::tensor::{Device, Distribution, Int, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
-use splatzoo_models::networks::encoding::encoded_width;
+use splatzoo_models::networks::encoding::{encoded_width, frequency_encoding};
+use splatzoo_models::networks::hash_grid::{HashGrid, HashGridConfig};
 use splatzoo_models::networks::mlp::{SkipMlp, head};
+
+/// `γ` of the residual field's canonical positions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PositionEncoding {
+    /// NeRF's frequency encoding, `position_levels` octaves (the paper's, via DeformGS).
+    Frequency,
+    /// instant-NGP's hash encoding with `position_hash`'s shape, trained with `F_φ`.
+    Hash,
+}
 
 /// Every architectural knob.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -37,6 +50,10 @@ pub struct NetworkConfig {
     /// Frequencies of `γ(t)` and of `γ(μ̄)`, `γ(x̄)`.
     pub time_levels: usize,
     pub position_levels: usize,
+    /// `γ(μ̄)` of `F_φ` (`D_ψ` keeps the frequency encoding).
+    pub position_encoding: PositionEncoding,
+    /// The hash encoding's shape where `position_encoding = "hash"`.
+    pub position_hash: HashGridConfig,
     /// `C`'s hidden width (two layers) and the width of `c_t`.
     pub guidance_width: usize,
     pub condition: usize,
@@ -58,6 +75,8 @@ impl Default for NetworkConfig {
             embedding: 16,
             time_levels: 10,
             position_levels: 10,
+            position_encoding: PositionEncoding::Frequency,
+            position_hash: HashGridConfig::default(),
             guidance_width: 256,
             condition: 64,
             residual_depth: 4,
@@ -75,9 +94,17 @@ impl NetworkConfig {
         self.image_features + self.embedding + encoded_width(1, self.time_levels)
     }
 
+    /// Width of `F_φ`'s `γ(μ̄)`.
+    pub fn residual_position_width(&self) -> usize {
+        match self.position_encoding {
+            PositionEncoding::Frequency => encoded_width(3, self.position_levels),
+            PositionEncoding::Hash => self.position_hash.levels * self.position_hash.features,
+        }
+    }
+
     /// `[γ(μ̄) ‖ c_t]`, `F_φ`'s input width.
     pub fn residual_inputs(&self) -> usize {
-        encoded_width(3, self.position_levels) + self.condition
+        self.residual_position_width() + self.condition
     }
 
     /// `[γ(x̄) ‖ γ(t) ‖ e_a]`, `D_ψ`'s input width.
@@ -104,6 +131,12 @@ impl NetworkConfig {
             ("residual_width", self.residual_width),
             ("accessory_depth", self.accessory_depth),
             ("accessory_width", self.accessory_width),
+            ("position_hash.levels", self.position_hash.levels),
+            ("position_hash.features", self.position_hash.features),
+            (
+                "position_hash.base_resolution",
+                self.position_hash.base_resolution,
+            ),
         ] {
             if v == 0 {
                 return Err(format!("network.{name} ≥ 1"));
@@ -188,8 +221,11 @@ impl Guidance {
 }
 
 /// `F_φ` (Eq. 5): `[γ(μ̄) ‖ c_t]` → raw `[δμ (3) ‖ δq (4) ‖ δs (3)]`, zero at initialisation.
+/// With a hash `γ` the field owns its table (`encoding`), trained and checkpointed with it;
+/// [`ResidualField::forward`] is the MLP on encoded inputs either way (what ONNX exports).
 #[derive(Module, Debug)]
 pub struct ResidualField {
+    pub encoding: Option<HashGrid>,
     pub trunk: SkipMlp,
     pub head: Linear,
 }
@@ -208,9 +244,29 @@ impl ResidualField {
             device,
         );
         let width = trunk.output_width();
+        let encoding = (config.position_encoding == PositionEncoding::Hash).then(|| {
+            // The table's seed from the device's generator, so a run's seed draws it.
+            let seed = Tensor::<1>::random([1], Distribution::Uniform(0.0, 16_777_216.0), device)
+                .into_data()
+                .convert::<f32>()
+                .as_slice::<f32>()
+                .map_or(0, |v| v[0] as u64);
+            HashGrid::new(config.position_hash, seed, device)
+        });
         Self {
+            encoding,
             trunk,
             head: head(width, RESIDUAL_COLUMNS, true, device),
+        }
+    }
+
+    /// `γ` of canonical positions already normalised to `[−1, 1]³` (`[G, 3]`): the hash code
+    /// of the unit-cube point `(x + 1) / 2` where the field owns a table, else the frequency
+    /// encoding of `levels` octaves.
+    pub fn encode_positions(&self, normalised: Tensor<2>, levels: usize) -> Tensor<2> {
+        match &self.encoding {
+            Some(grid) => grid.encode(normalised.add_scalar(1.0).mul_scalar(0.5)),
+            None => frequency_encoding(normalised, levels),
         }
     }
 

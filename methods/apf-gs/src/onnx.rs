@@ -5,7 +5,9 @@
 //!   `condition_and_sigma` `[1, C + 1]` = `[c_t ‖ σ_t]` (the sigmoid applied);
 //! - `residual.onnx` (`F_φ`): `residual_inputs` `[G, 63 + C]` = `[γ(μ̄) ‖ c_t]` →
 //!   `residual` `[G, 10]`, raw `(δμ, δq, δs)` before the gate (multiply by `a(σ)`, then bound
-//!   `δμ` by `r_max tanh(·/r_max)`; see [`crate::residual`]);
+//!   `δμ` by `r_max tanh(·/r_max)`; see [`crate::residual`]). With a hash `γ` the input is the
+//!   hash code, `[G, L·F + C]`: the table stays outside the graph (for a trained body its codes
+//!   are constants, as Illum's are);
 //! - `accessory.onnx` (`D_ψ`): `accessory_inputs` `[N, 63 + T + E]` = `[γ(x̄) ‖ γ(t) ‖ e_a]`
 //!   → `deformation` `[N, 7]` = `(δx, δq)`.
 //!

@@ -7,7 +7,8 @@
 //! is: `μ = μ_posed + R_h δμ`, `q = (R_h n((1,0,0,0) + δq) R_hᵀ) ⊗ q_posed` (conjugating a unit
 //! quaternion by `R_h` keeps its scalar and rotates its vector part), `log s = log s_posed + δs`.
 //! `δμ` is bounded to `r_max · tanh(· / r_max)` for stability at the extremes. `γ` reads the
-//! canonical mean normalised to the canonical body's bounding box, `[−1, 1]³`.
+//! canonical mean normalised to the canonical body's bounding box, `[−1, 1]³` (the frequency
+//! encoding, or the field's hash table: [`ResidualField::encode_positions`]).
 //!
 //! [`GatedResidual::compute`] also returns the gated body-frame residual, which Eq. 6's
 //! sparsity term reads.
@@ -73,19 +74,24 @@ pub fn bounding_box(points: &[f32], min_half: f32) -> ([f32; 3], [f32; 3]) {
     )
 }
 
-/// `γ` of canonical means `[G, 3]` normalised to a box.
+/// Canonical means `[G, 3]` normalised to a box: `[−1, 1]³` inside it.
+pub fn normalise_positions(means: Tensor<2>, centre: [f32; 3], half_extent: [f32; 3]) -> Tensor<2> {
+    let device = means.device();
+    let lift = |t: Tensor<2>| if means.is_autodiff() { t.autodiff() } else { t };
+    let c = lift(Tensor::<1>::from_floats(centre, &device).reshape([1, 3]));
+    let h =
+        lift(Tensor::<1>::from_floats(half_extent.map(|v| v.max(1e-6)), &device).reshape([1, 3]));
+    (means - c) / h
+}
+
+/// `γ` (NeRF's frequency encoding) of canonical means `[G, 3]` normalised to a box.
 pub fn encode_positions(
     means: Tensor<2>,
     centre: [f32; 3],
     half_extent: [f32; 3],
     levels: usize,
 ) -> Tensor<2> {
-    let device = means.device();
-    let lift = |t: Tensor<2>| if means.is_autodiff() { t.autodiff() } else { t };
-    let c = lift(Tensor::<1>::from_floats(centre, &device).reshape([1, 3]));
-    let h =
-        lift(Tensor::<1>::from_floats(half_extent.map(|v| v.max(1e-6)), &device).reshape([1, 3]));
-    frequency_encoding((means - c) / h, levels)
+    frequency_encoding(normalise_positions(means, centre, half_extent), levels)
 }
 
 /// Raw field outputs `[G, 10]` gated by `amplitude` `[1, 1]` into body-frame (δμ, δq, δs).
@@ -126,12 +132,9 @@ impl GatedResidual {
     /// The node's additive residual and the gated body-frame one.
     pub fn compute(&self, input: &ResidualInput) -> (Residual, Produced) {
         let g = input.splats.len();
-        let encoded = encode_positions(
-            input.canonical.means.clone(),
-            self.centre,
-            self.half_extent,
-            self.levels,
-        );
+        let normalised =
+            normalise_positions(input.canonical.means.clone(), self.centre, self.half_extent);
+        let encoded = self.field.encode_positions(normalised, self.levels);
         let [_, c] = self.condition.dims();
         let condition = self.condition.clone().expand([g, c]);
         let raw = self.field.forward(Tensor::cat(vec![encoded, condition], 1));
