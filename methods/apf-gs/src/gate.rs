@@ -8,6 +8,11 @@
 //! amplitude at σ = 0, κ at σ = 1); the literal readings are [`GateForm::Sigma`] and
 //! [`GateForm::OneMinus`]. σ itself is learned by the guidance module, or fixed (Table II's
 //! "strong prior" σ ≡ 1 and "weak prior" σ ≡ 0).
+//!
+//! σ is one scalar per (person, frame), as the paper has it; the spec's optional variant
+//! ([`GateGranularity::Gaussian`]) reads "in regions with high photometric error" per Gaussian:
+//! `σ_{t,i} = sigmoid(ℓ_t + δℓ_i)`, the frame's logit from the guidance module plus an offset
+//! from an eleventh output of `F_φ` (zero at the start, so every Gaussian starts at σ_t).
 
 use burn::tensor::Tensor;
 use burn::tensor::activation::sigmoid;
@@ -23,6 +28,16 @@ pub enum GateForm {
     Sigma,
     /// `a(σ) = 1 − σ`.
     OneMinus,
+}
+
+/// How finely σ is resolved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GateGranularity {
+    /// One σ per (person, frame) (the paper's "scalar").
+    PersonFrame,
+    /// One σ per Gaussian around the frame's (the spec's optional variant).
+    Gaussian,
 }
 
 /// Where σ comes from.
@@ -44,6 +59,7 @@ pub struct GateConfig {
     pub form: GateForm,
     /// The blend's amplitude at σ = 1.
     pub kappa: f64,
+    pub granularity: GateGranularity,
 }
 
 impl Default for GateConfig {
@@ -53,6 +69,7 @@ impl Default for GateConfig {
             value: 1.0,
             form: GateForm::Blend,
             kappa: 0.1,
+            granularity: GateGranularity::PersonFrame,
         }
     }
 }
@@ -65,7 +82,29 @@ impl GateConfig {
         if !(0.0..=1.0).contains(&self.kappa) {
             return Err(format!("gate.kappa in [0, 1], got {}", self.kappa));
         }
+        if self.granularity == GateGranularity::Gaussian && self.mode == GateMode::Fixed {
+            return Err(
+                "gate.granularity = \"gaussian\" needs gate.mode = \"learned\" (a fixed σ has \
+                 no per-Gaussian offsets)"
+                    .into(),
+            );
+        }
         Ok(())
+    }
+
+    /// Columns of `F_φ`'s output: `(δμ, δq, δs)`, plus the gate offset `δℓ` per Gaussian.
+    pub fn residual_columns(&self) -> usize {
+        match self.granularity {
+            GateGranularity::PersonFrame => 10,
+            GateGranularity::Gaussian => 11,
+        }
+    }
+
+    /// σ per Gaussian `[G, 1]`: `sigmoid(ℓ_t + δℓ_i)` from the frame's logit `[1, 1]` and the
+    /// offsets `[G, 1]`.
+    pub fn sigma_per_gaussian(&self, logit: Tensor<2>, offsets: Tensor<2>) -> Tensor<2> {
+        let [g, _] = offsets.dims();
+        sigmoid(logit.expand([g, 1]) + offsets)
     }
 
     /// σ `[B, 1]` from the guidance logits `[B, 1]` (a constant in fixed mode).

@@ -71,7 +71,8 @@ pub fn guide(
     }
     let (condition, logit) = nets.guidance.forward(Tensor::cat(vec![f, e, time], 1));
     Guided {
-        sigma: config.gate.sigma(logit),
+        sigma: config.gate.sigma(logit.clone()),
+        logit,
         condition,
     }
 }

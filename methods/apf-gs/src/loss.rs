@@ -41,7 +41,10 @@ pub fn limit_loss(rotations: Tensor<4>) -> Tensor<1> {
 }
 
 /// One person's Eq. 6 regulariser: `σ λ_sparse L_sparse + (1 − σ) λ_kine (λ_bone L_bone +
-/// λ_limit L_limit)`, σ `[1, 1]` kept in the graph.
+/// λ_limit L_limit)`, σ kept in the graph. With one σ per person-frame, `sigma` is `[1, 1]` and
+/// `sparsity` `[1]` (`L_sparse`); with a per-Gaussian gate, `sigma` is `[G, 1]` and `sparsity`
+/// `[G]` (each Gaussian's row), so the sparse term is `mean_i σ_i s_i` and the kinematic weight
+/// `1 − mean_i σ_i` (the body's kinematics are one term).
 pub struct PersonTerms {
     pub sigma: Tensor<2>,
     pub sparsity: Tensor<1>,
@@ -59,9 +62,16 @@ pub struct TermWeights {
 
 impl PersonTerms {
     pub fn total(&self, w: &TermWeights) -> Tensor<1> {
-        let sigma = self.sigma.clone().reshape([1]);
         let kine = self.bone.clone() * w.bone + self.limit.clone() * w.limit;
-        sigma.clone() * self.sparsity.clone() * w.sparse + (sigma * -1.0 + 1.0) * kine * w.kine
+        let [rows, _] = self.sigma.dims();
+        if rows == 1 {
+            let sigma = self.sigma.clone().reshape([1]);
+            return sigma.clone() * self.sparsity.clone() * w.sparse
+                + (sigma * -1.0 + 1.0) * kine * w.kine;
+        }
+        let sigma = self.sigma.clone().reshape([rows]);
+        let sparse = (sigma.clone() * self.sparsity.clone()).mean();
+        sparse * w.sparse + (sigma.mean() * -1.0 + 1.0) * kine * w.kine
     }
 }
 

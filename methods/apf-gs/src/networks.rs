@@ -220,7 +220,8 @@ impl Guidance {
     }
 }
 
-/// `F_φ` (Eq. 5): `[γ(μ̄) ‖ c_t]` → raw `[δμ (3) ‖ δq (4) ‖ δs (3)]`, zero at initialisation.
+/// `F_φ` (Eq. 5): `[γ(μ̄) ‖ c_t]` → raw `[δμ (3) ‖ δq (4) ‖ δs (3)]` (and a per-Gaussian gate
+/// offset `δℓ` where σ is per Gaussian), zero at initialisation.
 /// With a hash `γ` the field owns its table (`encoding`), trained and checkpointed with it;
 /// [`ResidualField::forward`] is the MLP on encoded inputs either way (what ONNX exports).
 #[derive(Module, Debug)]
@@ -230,11 +231,10 @@ pub struct ResidualField {
     pub head: Linear,
 }
 
-/// Columns of the residual field's output.
-pub const RESIDUAL_COLUMNS: usize = 10;
-
 impl ResidualField {
-    pub fn new(config: &NetworkConfig, device: &Device) -> Self {
+    /// A field with `columns` outputs (10, or 11 with a per-Gaussian gate:
+    /// [`crate::gate::GateConfig::residual_columns`]).
+    pub fn new(config: &NetworkConfig, columns: usize, device: &Device) -> Self {
         let depth = config.residual_depth;
         let trunk = SkipMlp::new(
             config.residual_inputs(),
@@ -256,7 +256,7 @@ impl ResidualField {
         Self {
             encoding,
             trunk,
-            head: head(width, RESIDUAL_COLUMNS, true, device),
+            head: head(width, columns, true, device),
         }
     }
 
@@ -339,7 +339,15 @@ pub struct ApfNetworks {
 }
 
 impl ApfNetworks {
-    pub fn new(config: &NetworkConfig, people: usize, accessories: usize, device: &Device) -> Self {
+    /// Fresh networks for `people` tracked people and `accessories` accessory nodes; `F_φ` has
+    /// `residual_columns` outputs.
+    pub fn new(
+        config: &NetworkConfig,
+        residual_columns: usize,
+        people: usize,
+        accessories: usize,
+        device: &Device,
+    ) -> Self {
         let table = |rows: usize| {
             Param::from_tensor(Tensor::<2>::random(
                 [rows.max(1), config.embedding],
@@ -350,7 +358,7 @@ impl ApfNetworks {
         Self {
             encoder: ImageEncoder::new(config, device),
             guidance: Guidance::new(config, device),
-            residual: ResidualField::new(config, device),
+            residual: ResidualField::new(config, residual_columns, device),
             accessory: AccessoryField::new(config, device),
             embeddings: Embeddings {
                 person: table(people),

@@ -83,6 +83,7 @@ pub fn repose(
         let n = all.len() as f64;
         Guided {
             sigma: Tensor::cat(all.iter().map(|g| g.sigma.clone()).collect(), 0).mean_dim(0),
+            logit: Tensor::cat(all.iter().map(|g| g.logit.clone()).collect(), 0).mean_dim(0),
             condition: Tensor::cat(all.iter().map(|g| g.condition.clone()).collect(), 0).sum_dim(0)
                 / n,
         }

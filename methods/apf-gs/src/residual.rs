@@ -11,8 +11,9 @@
 //! encoding, or the field's hash table: [`ResidualField::encode_positions`]).
 //!
 //! [`GatedResidual::compute`] also returns the gated body-frame residual, which Eq. 6's
-//! sparsity term reads.
+//! sparsity term reads, and with a per-Gaussian gate each Gaussian's σ.
 
+use crate::gate::GateConfig;
 use crate::networks::ResidualField;
 use burn::tensor::Tensor;
 use splatzoo_models::networks::encoding::frequency_encoding;
@@ -20,13 +21,21 @@ use splatzoo_rasterizer::Splats;
 use splatzoo_train::scene::skinned::skinning::{quaternion_product, unit_quaternions};
 use splatzoo_train::scene::skinned::{NonRigidField, Residual, ResidualInput, ResidualSpace};
 
+/// How one person-frame's residual is gated.
+pub enum ResidualGate {
+    /// `a(σ_t)` `[1, 1]`: one σ for the person at the frame.
+    PersonFrame(Tensor<2>),
+    /// The frame's logit `ℓ_t` `[1, 1]`: each Gaussian's `σ_i = sigmoid(ℓ_t + δℓ_i)`, `δℓ_i`
+    /// the field's eleventh column, then `a(σ_i)` by `gate`.
+    Gaussian { logit: Tensor<2>, gate: GateConfig },
+}
+
 /// One person-frame's residual: the field and what conditions it.
 pub struct GatedResidual {
     pub field: ResidualField,
     /// `[1, condition]` the guidance's `c_t`.
     pub condition: Tensor<2>,
-    /// `[1, 1]` `a(σ_t)`.
-    pub amplitude: Tensor<2>,
+    pub gate: ResidualGate,
     pub levels: usize,
     /// The canonical body's bounding box (centre, half extent), for `γ`'s normalisation.
     pub centre: [f32; 3],
@@ -36,16 +45,26 @@ pub struct GatedResidual {
 }
 
 /// The last residual: `[G, 3]` body-frame offsets, `[G, 4]` quaternion residuals, `[G, 3]`
-/// log-scale residuals, all gated.
+/// log-scale residuals, all gated; each Gaussian's σ `[G, 1]` where the gate is per Gaussian.
 #[derive(Clone)]
 pub struct Produced {
     pub offsets: Tensor<2>,
     pub rotations: Tensor<2>,
     pub log_scales: Tensor<2>,
+    pub sigma: Option<Tensor<2>>,
 }
 
 impl Produced {
-    /// Eq. 6's `L_sparse` (spec §4): `mean_i(‖δμ_i‖₁ / 0.01 m + ‖δq_i‖₁ + ‖δs_i‖₁)`.
+    /// Each Gaussian's `‖δμ_i‖₁ / 0.01 m + ‖δq_i‖₁ + ‖δs_i‖₁`, `[G]`.
+    pub fn sparsity_rows(&self) -> Tensor<1> {
+        let [g, _] = self.offsets.dims();
+        (self.offsets.clone().abs().sum_dim(1) / 0.01
+            + self.rotations.clone().abs().sum_dim(1)
+            + self.log_scales.clone().abs().sum_dim(1))
+        .reshape([g])
+    }
+
+    /// Eq. 6's `L_sparse` (spec §4): the mean of [`Self::sparsity_rows`].
     pub fn sparsity(&self) -> Tensor<1> {
         let rows = self.offsets.clone().abs().sum_dim(1) / 0.01
             + self.rotations.clone().abs().sum_dim(1)
@@ -94,7 +113,8 @@ pub fn encode_positions(
     frequency_encoding(normalise_positions(means, centre, half_extent), levels)
 }
 
-/// Raw field outputs `[G, 10]` gated by `amplitude` `[1, 1]` into body-frame (δμ, δq, δs).
+/// Raw field outputs `[G, 10]` gated by `amplitude` (`[1, 1]`, or `[G, 1]` per Gaussian) into
+/// body-frame (δμ, δq, δs).
 pub fn gate_outputs(raw: Tensor<2>, amplitude: Tensor<2>, max_offset: f64) -> Produced {
     let [g, _] = raw.dims();
     let gated = raw * amplitude.expand([g, 10]);
@@ -103,6 +123,7 @@ pub fn gate_outputs(raw: Tensor<2>, amplitude: Tensor<2>, max_offset: f64) -> Pr
         offsets,
         rotations: gated.clone().slice([0..g, 3..7]),
         log_scales: gated.slice([0..g, 7..10]),
+        sigma: None,
     }
 }
 
@@ -138,7 +159,24 @@ impl GatedResidual {
         let [_, c] = self.condition.dims();
         let condition = self.condition.clone().expand([g, c]);
         let raw = self.field.forward(Tensor::cat(vec![encoded, condition], 1));
-        let produced = gate_outputs(raw, self.amplitude.clone(), self.max_offset);
+        let produced = match &self.gate {
+            ResidualGate::PersonFrame(amplitude) => {
+                gate_outputs(raw, amplitude.clone(), self.max_offset)
+            }
+            ResidualGate::Gaussian { logit, gate } => {
+                let sigma =
+                    gate.sigma_per_gaussian(logit.clone(), raw.clone().slice([0..g, 10..11]));
+                let produced = gate_outputs(
+                    raw.slice([0..g, 0..10]),
+                    gate.amplitude(sigma.clone()),
+                    self.max_offset,
+                );
+                Produced {
+                    sigma: Some(sigma),
+                    ..produced
+                }
+            }
+        };
         let root = input
             .pose
             .clone()

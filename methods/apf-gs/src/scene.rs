@@ -9,10 +9,11 @@ use crate::config::ApfConfig;
 use crate::data::ApfCapture;
 use crate::decouple::wants_accessory;
 use crate::error::ApfError;
+use crate::gate::GateGranularity;
 use crate::loss::{PersonTerms, limit_loss, relative_bone_loss};
 use crate::networks::{ApfNetworks, Embeddings};
 use crate::parent::{PELVIS, accessory_returns, fallback_points, initial_points, select_parent};
-use crate::residual::{GatedResidual, bounding_box};
+use crate::residual::{GatedResidual, ResidualGate, bounding_box};
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_models::body::BodyModel;
 use splatzoo_models::body::priors::bone_lengths;
@@ -311,8 +312,9 @@ fn scene_extent(points: &splatzoo_train::views::InitPoints) -> f64 {
 
 /// What conditions one person's residual at one frame.
 pub struct Guided {
-    /// `[1, 1]` σ and `[1, 1]` its logit.
+    /// `[1, 1]` σ and `[1, 1]` the guidance's logit (σ's, in learned mode).
     pub sigma: Tensor<2>,
+    pub logit: Tensor<2>,
     pub condition: Tensor<2>,
 }
 
@@ -474,7 +476,15 @@ pub fn pose_human(
     let field = GatedResidual {
         field: nets.residual.clone(),
         condition: guided.condition.clone(),
-        amplitude: config.gate.amplitude(guided.sigma.clone()),
+        gate: match config.gate.granularity {
+            GateGranularity::PersonFrame => {
+                ResidualGate::PersonFrame(config.gate.amplitude(guided.sigma.clone()))
+            }
+            GateGranularity::Gaussian => ResidualGate::Gaussian {
+                logit: guided.logit.clone(),
+                gate: config.gate.clone(),
+            },
+        },
         levels: config.network.position_levels,
         centre: human.centre,
         half_extent: human.half_extent,
@@ -500,9 +510,14 @@ pub fn pose_human(
     .reshape([j]);
     let splats = residual.apply(posed.splats);
     let regressed = node.regress_joints(splats.means.clone());
+    // Eq. 6's weights: the person-frame's σ, or each Gaussian's on its own sparsity row.
+    let (sigma, sparsity) = match &produced.sigma {
+        Some(per_gaussian) => (per_gaussian.clone(), produced.sparsity_rows()),
+        None => (guided.sigma.clone(), produced.sparsity()),
+    };
     let terms = PersonTerms {
-        sigma: guided.sigma.clone(),
-        sparsity: produced.sparsity(),
+        sigma,
+        sparsity,
         bone: relative_bone_loss(regressed, &node.model().parents, unstretched),
         limit: limit_loss(posed.pose.rotations.clone()),
     };

@@ -361,6 +361,7 @@ impl ApfTrainer {
         let scene = ApfScene::build(&config, &capture, &model, device)?;
         let nets = ApfNetworks::new(
             &config.network,
+            config.gate.residual_columns(),
             capture.people.len(),
             scene.accessories.len(),
             device,

@@ -129,6 +129,66 @@ fn sigma_gradient_is_the_difference_of_the_two_regularisers() {
     );
 }
 
+/// The per-Gaussian gate's Eq. 6: `d/dσ_i = (λ_s s_i − λ_k L_kine) / G` for each of `G`
+/// Gaussians' σ and sparsity rows, on fresh random values; at equal σ_i it is the
+/// person-frame total with `L_sparse = mean_i s_i`.
+#[test]
+fn per_gaussian_sigma_gradients_are_their_rows_against_the_kinematics() {
+    let seed = crate::fresh_seed();
+    let mut rng = Rng(seed);
+    let device = Device::flex();
+    let g = 7;
+    let sigmas: Vec<f32> = (0..g).map(|_| rng.range(0.05, 0.95) as f32).collect();
+    let rows: Vec<f32> = (0..g).map(|_| rng.range(0.0, 2.0) as f32).collect();
+    let (lb, ll) = (rng.range(0.0, 2.0), rng.range(0.0, 2.0));
+    let w = TermWeights {
+        sparse: 1e-3,
+        kine: 0.1,
+        bone: 1.0,
+        limit: 1.0,
+    };
+    let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
+    let sigma = Tensor::<2>::from_data(TensorData::new(sigmas.clone(), [g, 1]), &device)
+        .autodiff()
+        .require_grad();
+    let terms = PersonTerms {
+        sigma: sigma.clone(),
+        sparsity: Tensor::<1>::from_data(TensorData::new(rows.clone(), [g]), &device).autodiff(),
+        bone: constant(lb),
+        limit: constant(ll),
+    };
+    let grads = terms.total(&w).backward();
+    let got = host_f32(&sigma.grad(&grads).expect("each σ_i has a gradient"));
+    let kine = w.bone * lb + w.limit * ll;
+    for i in 0..g {
+        let want = (w.sparse * f64::from(rows[i]) - w.kine * kine) / g as f64;
+        assert!(
+            (f64::from(got[i]) - want).abs() < 1e-6,
+            "seed {seed}, Gaussian {i}: {} vs {want}",
+            got[i]
+        );
+    }
+    // Equal σ_i: the person-frame total on the mean row.
+    let equal = PersonTerms {
+        sigma: Tensor::<2>::full([g, 1], sigmas[0], &device),
+        sparsity: Tensor::<1>::from_data(TensorData::new(rows.clone(), [g]), &device),
+        bone: Tensor::<1>::from_floats([lb as f32], &device),
+        limit: Tensor::<1>::from_floats([ll as f32], &device),
+    };
+    let mean_row = rows.iter().map(|&r| f64::from(r)).sum::<f64>() / g as f64;
+    let frame = PersonTerms {
+        sigma: Tensor::<2>::full([1, 1], sigmas[0], &device),
+        sparsity: Tensor::<1>::from_floats([mean_row as f32], &device),
+        bone: Tensor::<1>::from_floats([lb as f32], &device),
+        limit: Tensor::<1>::from_floats([ll as f32], &device),
+    };
+    let (a, b) = (scalar(equal.total(&w)), scalar(frame.total(&w)));
+    assert!(
+        (a - b).abs() < 1e-6 * b.abs().max(1.0),
+        "seed {seed}: {a} vs {b}"
+    );
+}
+
 #[test]
 fn the_residual_chain_matches_finite_differences() {
     let seed = crate::fresh_seed();

@@ -15,7 +15,7 @@ fn every_graph_runs_in_tract_as_in_burn() {
         accessory_width: 16,
         ..NetworkConfig::default()
     };
-    let nets = ApfNetworks::new(&config, 2, 1, &device);
+    let nets = ApfNetworks::new(&config, 10, 2, 1, &device);
     let dir = tempfile::tempdir().unwrap();
     let graphs = export(&nets, &config, 50, 20, dir.path(), &device).expect("exports");
     assert_eq!(graphs.len(), 3);

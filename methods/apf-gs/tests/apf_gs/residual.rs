@@ -62,6 +62,7 @@ fn the_residual_is_added_in_the_body_frame_then_carried_by_the_root() {
         offsets: tensor2(f32s(&offsets), [g, 3], &device),
         rotations: tensor2(f32s(&dq), [g, 4], &device),
         log_scales: tensor2(f32s(&ds), [g, 3], &device),
+        sigma: None,
     };
     let root_t = tensor2(f32s(&root.concat()), [3, 3], &device);
     let residual = world_residual(&posed, &produced, root_t);
@@ -149,7 +150,7 @@ fn offsets_stay_within_the_bound_and_scale_with_the_amplitude() {
 fn the_field_starts_at_zero_and_sigma_starts_at_its_prior() {
     let device = Device::flex();
     let config = NetworkConfig::default();
-    let field = ResidualField::new(&config, &device);
+    let field = ResidualField::new(&config, 10, &device);
     let input = Tensor::random(
         [64, config.residual_inputs()],
         Distribution::Normal(0.0, 1.0),

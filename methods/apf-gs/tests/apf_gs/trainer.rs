@@ -5,7 +5,7 @@
 
 use burn::tensor::Device;
 use splatzoo_apf_gs::config::ApfConfig;
-use splatzoo_apf_gs::gate::GateMode;
+use splatzoo_apf_gs::gate::{GateGranularity, GateMode};
 use splatzoo_apf_gs::networks::PositionEncoding;
 use splatzoo_apf_gs::repose::{default_motion, repose};
 use splatzoo_apf_gs::trainer::ApfTrainer;
@@ -290,6 +290,46 @@ fn a_hash_encoded_residual_field_trains_and_resumes_exactly() {
     for (name, value) in &ca.tensors {
         assert_eq!(value, &cb.tensors[name], "{name} differs after resume");
     }
+}
+
+/// `gate.granularity = "gaussian"` (the spec's optional variant): `F_φ` has an eleventh output,
+/// zero at the start (every Gaussian at its frame's σ: the first render is the person-frame
+/// gate's), trained once S2 runs; a fixed σ with it is refused by name.
+#[test]
+fn a_per_gaussian_gate_starts_at_the_frame_sigma_and_is_trained() {
+    let mut c = small();
+    c.iterations = 9;
+    c.warmup = 1;
+    let frame = trainer(c.clone());
+    c.gate.granularity = GateGranularity::Gaussian;
+    let mut t = trainer(c.clone());
+    let i = t.capture.train[0];
+    assert_eq!(
+        host_f32(&frame.render_view(i).expect("renders").0.color),
+        host_f32(&t.render_view(i).expect("renders").0.color),
+        "the first render is the person-frame gate's"
+    );
+    // Burn's linear weights are [inputs, outputs].
+    let [_, columns] = t.nets.residual.head.weight.val().dims();
+    assert_eq!(columns, 11);
+    let offsets = |t: &ApfTrainer| {
+        let w = host_f32(&t.nets.residual.head.weight.val());
+        w.chunks(11).map(|row| row[10]).collect::<Vec<f32>>()
+    };
+    assert!(offsets(&t).iter().all(|&v| v == 0.0));
+    for _ in 0..6 {
+        assert!(t.step().expect("a step").loss.is_finite());
+    }
+    assert!(
+        offsets(&t).iter().any(|&v| v != 0.0),
+        "the gate offsets are trained"
+    );
+    c.gate.mode = GateMode::Fixed;
+    let refused = ApfTrainer::new(c, &Device::flex()).err().expect("refused");
+    assert!(
+        refused.to_string().contains("gate.granularity"),
+        "{refused}"
+    );
 }
 
 /// The whole step (networks, gate, residual, skinning, accessories, both rasterizer passes,
