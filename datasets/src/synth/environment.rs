@@ -36,6 +36,23 @@ impl Prop {
     }
 }
 
+/// A wooden cabinet standing on the floor, its footprint centred at `footprint_centre`, `size`
+/// metres (width, height, depth), turned by `yaw` radians about +y: furniture that hides part
+/// of a person from a camera.
+pub fn cabinet(seed: u64, footprint_centre: DVec3, size: DVec3, yaw: f64) -> Prop {
+    let mut rng = Rng(seed ^ 0x0000_CAB1);
+    let colour = super::identity::colour_between(&mut rng, 0.3, 0.6);
+    let mut mesh = MeshBuilder::default();
+    mesh.oriented_box(
+        footprint_centre + DVec3::Y * (0.5 * size.y),
+        0.5 * size,
+        DMat3::from_rotation_y(yaw),
+        [1.0; 3],
+    );
+    let (texture, tile) = crate_wood(colour, seed);
+    Prop::textured("cabinet", mesh, texture, tile)
+}
+
 /// Static geometry and what shows where it is missing.
 #[derive(Debug, Clone, Default)]
 pub struct Environment {

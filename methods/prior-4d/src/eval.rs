@@ -1,6 +1,8 @@
 //! Stage D's scores (§5.1.2 of Prior-4D and the spec's additions), at the synchronised
 //! evaluation camera, which no stage trains on: PSNR, SSIM (and 1 − SSIM, the paper's
-//! "D-SSIM"), LPIPS where weights are given; the avatar's normal angle error (mean, median)
+//! "D-SSIM"), LPIPS where weights are given; the PSNR over the true person pixels alone (per
+//! frame, averaged over the frames that show her: the whole image hardly sees what the avatar
+//! prior adds — the evaluation camera sees the back the acting video never films); the avatar's normal angle error (mean, median)
 //! against the true normals over the true person mask (a pixel the avatar leaves uncovered,
 //! rendered normal shorter than 0.1, counts 90°); the mask
 //! IoU of the rendered avatar (alpha > 0.5) against the true mask. The avatar is placed by the
@@ -15,19 +17,21 @@ use crate::data::Prior4dCapture;
 use crate::error::Prior4dError;
 use crate::joint::JointStage;
 use crate::locate::place;
-use burn::tensor::Tensor;
+use burn::tensor::{Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 use splatzoo_models::body::builtin_body;
 use splatzoo_train::avatar::{mpjpe_mm, track_joints};
 use splatzoo_train::harness::read_back;
 use splatzoo_train::host_f32;
-use splatzoo_train::loss::{psnr, scalar, ssim};
+use splatzoo_train::loss::{masked_psnr, psnr, scalar, ssim};
 use splatzoo_train::lpips::Lpips;
 
 /// Everything one evaluation reports.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct JointScores {
     pub psnr: f64,
+    /// PSNR over the true person mask; `None` where no evaluated frame shows the person.
+    pub human_psnr: Option<f64>,
     pub ssim: f64,
     pub one_minus_ssim: f64,
     pub lpips: Option<f64>,
@@ -120,12 +124,19 @@ impl JointStage {
         let scene = self.scene_splats(capture);
         let frames: Vec<usize> = (0..capture.eval.len()).step_by(stride.max(1)).collect();
         let (mut p, mut s, mut lp, mut iou) = (0.0, 0.0, 0.0, 0.0);
+        let mut human = Vec::new();
         let mut angles = Vec::new();
         for &t in &frames {
             let eval = &capture.eval[t];
             let layers = self.render_eval(capture, &scene, t, refine)?;
             let image = layers.color.clamp(0.0, 1.0);
             p += psnr(image.clone(), eval.image.clone());
+            if eval.mask.data.iter().any(|&m| m) {
+                let [h, w, _] = image.dims();
+                let mask: Vec<f32> = eval.mask.data.iter().map(|&m| f32::from(m)).collect();
+                let mask = Tensor::<2>::from_data(TensorData::new(mask, [h, w]), &image.device());
+                human.push(masked_psnr(image.clone(), eval.image.clone(), mask));
+            }
             s += scalar(ssim(image.clone(), eval.image.clone()));
             if let Some(l) = lpips {
                 lp += scalar(l.distance(image, eval.image.clone()));
@@ -201,6 +212,7 @@ impl JointStage {
         let sigma = self.sigma();
         Ok(JointScores {
             psnr: p / n,
+            human_psnr: (!human.is_empty()).then(|| human.iter().sum::<f64>() / human.len() as f64),
             ssim: s / n,
             one_minus_ssim: 1.0 - s / n,
             lpips: lpips.map(|_| lp / n),

@@ -115,8 +115,9 @@ struct Args {
 
 fn csv_row(arm: &str, seed: u64, s: &JointScores, seconds: f64) -> String {
     format!(
-        "{arm},{seed},{:.3},{:.4},{:.4},{:.2},{:.2},{:.4},{:.4},{:.4},{:.4},{:.1},{:.1},{:.1},{:.3},{:.1},{:.1},{seconds:.0}",
+        "{arm},{seed},{:.3},{},{:.4},{:.4},{:.2},{:.2},{:.4},{:.4},{:.4},{:.4},{:.1},{:.1},{:.1},{:.3},{:.1},{:.1},{seconds:.0}",
         s.psnr,
+        s.human_psnr.map_or(String::new(), |v| format!("{v:.3}")),
         s.ssim,
         s.one_minus_ssim,
         s.normal_mean_degrees,
@@ -144,7 +145,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
     // Each set of prior overrides, its stage-D start and (once run) that start's scores.
     let mut priors: Vec<(Vec<String>, Checkpoint, Option<JointScores>)> = Vec::new();
     let mut lines = vec![
-        "arm,seed,psnr,ssim,one_minus_ssim,normal_mean_deg,normal_median_deg,mask_iou,sigma,sigma_error,penetration_rate,foot_distance_mm,foot_height_mm,camera_centre_rms_mm,camera_rotation_deg,mpjpe_mm,prior_mpjpe_mm,seconds"
+        "arm,seed,psnr,human_psnr,ssim,one_minus_ssim,normal_mean_deg,normal_median_deg,mask_iou,sigma,sigma_error,penetration_rate,foot_distance_mm,foot_height_mm,camera_centre_rms_mm,camera_rotation_deg,mpjpe_mm,prior_mpjpe_mm,seconds"
             .to_owned(),
     ];
     for (name, sets) in arms {

@@ -23,6 +23,7 @@
 //! of the true height).
 //! Every person wears the static clothing relief the naked body model lacks.
 
+pub mod occluder;
 mod sensors;
 
 pub use sensors::{rest_pelvis, scaled_camera, to_camera_space};
@@ -30,6 +31,7 @@ pub use sensors::{rest_pelvis, scaled_camera, to_camera_space};
 use crate::error::Prior4dError;
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::DVec3;
+use occluder::occluder;
 use rayon::prelude::*;
 use sensors::{floor_mask, jittered, mask_tensor, noisy_normals, perturbed, true_normals};
 use serde::{Deserialize, Serialize};
@@ -87,6 +89,9 @@ pub struct Prior4dDataConfig {
     pub mask_jitter: usize,
     /// Samples per pixel along each axis.
     pub supersample: usize,
+    /// A cabinet in front of where the person stops, hiding her legs from the acting camera
+    /// (part of the room, so in every video).
+    pub occluder: bool,
 }
 
 impl Default for Prior4dDataConfig {
@@ -110,6 +115,7 @@ impl Default for Prior4dDataConfig {
             keypoint_miss_rate: 0.05,
             mask_jitter: 1,
             supersample: 2,
+            occluder: false,
         }
     }
 }
@@ -354,6 +360,14 @@ impl Prior4dDataConfig {
             * (0.5 * self.width as f32 / lens_camera.fx)
                 .atan()
                 .to_degrees();
+        if self.occluder {
+            let cabinet = occluder(
+                &acting_scene.people[0].motion,
+                &acting_scene.tracks[0].cameras,
+                self.seed,
+            );
+            acting_scene.environment.props.push(cabinet);
+        }
 
         // The scene scan: the room without the person.
         let scan_cameras = scan_loops(self.scene_views, fov, self.width, self.height, &mut rng);
@@ -541,12 +555,17 @@ impl Prior4dDataConfig {
         let acting_keypoints = self.keypoints(person, metre_cameras);
         let decisions = vec![format!(
             "synthetic Prior-4D capture, seed {}: scene scan {} views, human scan {} views, \
-             acting video {} frames + a fixed evaluation camera, {}×{}; scene units of 1/{} m \
-             (σ* = {}), scan gain {:?}, acting gain {:?}",
+             acting video {} frames{} + a fixed evaluation camera, {}×{}; scene \
+             units of 1/{} m (σ* = {}), scan gain {:?}, acting gain {:?}",
             self.seed,
             scene_scan.len(),
             scan_frames,
             acting.len(),
+            if self.occluder {
+                " (a cabinet hiding the person's legs where she stops)"
+            } else {
+                ""
+            },
             self.width,
             self.height,
             scale,

@@ -6,6 +6,7 @@ use crate::{Rng, fresh_seed, values};
 use burn::tensor::Device;
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_models::body::builtin_body;
+use splatzoo_prior_4d::data::occluder::stopping_frame;
 use splatzoo_prior_4d::data::{Prior4dCapture, Prior4dDataConfig, scaled_camera, to_camera_space};
 use splatzoo_rasterizer::Camera;
 use splatzoo_train::avatar::track_joints;
@@ -108,4 +109,105 @@ fn camera_space_tracks_pose_the_same_body() {
     for c in 0..3 {
         assert!((scaled.position()[c] - 0.7 * cameras[0].position()[c]).abs() < 1e-5);
     }
+}
+
+/// The default acting video, 60 frames at 96×72 (the whole clip), with or without the cabinet;
+/// masks without jitter.
+fn acting_capture(occluder: bool) -> Prior4dCapture {
+    Prior4dDataConfig {
+        width: 96,
+        height: 72,
+        scene_views: 4,
+        scan_views: 4,
+        supersample: 1,
+        mask_jitter: 0,
+        occluder,
+        ..Prior4dDataConfig::default()
+    }
+    .build(&Device::flex())
+    .expect("an acting capture")
+}
+
+fn rotation_of(camera: &Camera) -> glam::DMat3 {
+    let m = camera.world_to_camera;
+    glam::DMat3::from_cols_array(&[
+        f64::from(m[0][0]),
+        f64::from(m[1][0]),
+        f64::from(m[2][0]),
+        f64::from(m[0][1]),
+        f64::from(m[1][1]),
+        f64::from(m[2][1]),
+        f64::from(m[0][2]),
+        f64::from(m[1][2]),
+        f64::from(m[2][2]),
+    ])
+}
+
+/// Fig. 5's condition for the avatar prior: the hand-held acting camera and the person turn
+/// together, so every acting frame films her within about 50° of her front, while the fixed
+/// evaluation camera sees her back (more than 90° from her front) in some frames.
+#[test]
+fn the_acting_video_films_the_front_and_the_evaluation_camera_sees_the_back() {
+    let capture = acting_capture(false);
+    let (mut acting, mut evaluation) = (Vec::new(), Vec::new());
+    for (t, frame) in capture.acting.iter().enumerate() {
+        let root = capture.acting_truth.pose(t);
+        let in_camera = glam::DQuat::from_scaled_axis(glam::DVec3::new(root[0], root[1], root[2]))
+            * glam::DVec3::Z;
+        // −z in a camera's frame: 1 facing it, −1 showing it her back.
+        acting.push(-in_camera.z);
+        let world = rotation_of(&frame.true_camera).transpose() * in_camera;
+        evaluation.push(-(rotation_of(&capture.eval[t].camera) * world).z);
+    }
+    let least = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(
+        least(&acting) > 0.6,
+        "acting video: the least frontal frame has cos {:.3}",
+        least(&acting)
+    );
+    assert!(
+        least(&evaluation) < 0.0,
+        "evaluation camera: the least frontal frame has cos {:.3}",
+        least(&evaluation)
+    );
+}
+
+/// The cabinet stands between the acting camera and where the person stops: halfway through
+/// her standing part it hides a good part of her (the legs), leaves the rest in view, and the
+/// rows it hides are the lowest.
+#[test]
+fn the_cabinet_hides_the_standing_persons_legs() {
+    use splatzoo_datasets::synth::{Preset, SceneConfig};
+    let motion = SceneConfig {
+        frames: Some(60),
+        ..SceneConfig::new(Preset::Monocular, 0)
+    }
+    .build(&Device::flex())
+    .people[0]
+        .motion
+        .clone();
+    let frame = (stopping_frame(&motion) + 59) / 2;
+    let mask_rows = |capture: &Prior4dCapture| {
+        let mask = values(capture.acting[frame].mask.clone());
+        let rows: Vec<usize> = (0..mask.len())
+            .filter(|&p| mask[p] > 0.5)
+            .map(|p| p / 96)
+            .collect();
+        rows
+    };
+    let open = mask_rows(&acting_capture(false));
+    let hidden = mask_rows(&acting_capture(true));
+    assert!(
+        !hidden.is_empty() && (hidden.len() as f64) < 0.85 * open.len() as f64,
+        "frame {frame}: {} person pixels behind the cabinet against {} in the open",
+        hidden.len(),
+        open.len()
+    );
+    let lowest = |rows: &[usize]| rows.iter().copied().max().unwrap_or(0);
+    assert!(
+        lowest(&hidden) + 3 < lowest(&open),
+        "frame {frame}: the lowest visible row {} against {} in the open",
+        lowest(&hidden),
+        lowest(&open)
+    );
 }

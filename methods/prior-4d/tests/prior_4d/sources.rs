@@ -169,4 +169,13 @@ fn both_priors_from_the_acting_video_reach_stage_d() {
     }
     let scores = method.final_scores(None).expect("stage D's scores");
     assert!(scores.psnr.is_finite() && scores.sigma.is_finite());
+    // The person-only PSNR is scored where the evaluation camera shows her.
+    let human = scores
+        .human_psnr
+        .expect("the evaluation camera shows the person");
+    assert!(
+        human.is_finite() && human != scores.psnr,
+        "{human} against {}",
+        scores.psnr
+    );
 }
