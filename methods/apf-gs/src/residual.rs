@@ -66,10 +66,7 @@ impl Produced {
 
     /// Eq. 6's `L_sparse` (spec §4): the mean of [`Self::sparsity_rows`].
     pub fn sparsity(&self) -> Tensor<1> {
-        let rows = self.offsets.clone().abs().sum_dim(1) / 0.01
-            + self.rotations.clone().abs().sum_dim(1)
-            + self.log_scales.clone().abs().sum_dim(1);
-        rows.mean()
+        self.sparsity_rows().mean()
     }
 }
 

@@ -223,10 +223,15 @@ fn held_out_predictions_read_no_held_out_image_and_resume_is_exact() {
     a.capture.views[test].image = a.capture.views[test].image.clone() * 0.0 + 0.5;
     let after = host_f32(&a.render_view(test).expect("renders").0.color);
     assert_eq!(before, after, "a held-out prediction read its image");
-    let saved = a.checkpoint();
-    let mut meta = saved.clone();
+    assert_resume_is_exact(&mut a, c);
+}
+
+/// Resumes `a` (built from `config`) from its checkpoint and takes one step on both: the same
+/// tensors under the same names.
+fn assert_resume_is_exact(a: &mut ApfTrainer, config: ApfConfig) {
+    let mut meta = a.checkpoint();
     meta.put_meta("step", a.step);
-    let mut b = ApfTrainer::resume(c, &meta, &Device::flex()).expect("resumes");
+    let mut b = ApfTrainer::resume(config, &meta, &Device::flex()).expect("resumes");
     a.step().expect("step");
     b.step().expect("step");
     let (ca, cb) = (a.checkpoint(), b.checkpoint());
@@ -281,15 +286,7 @@ fn a_hash_encoded_residual_field_trains_and_resumes_exactly() {
         "the table is checkpointed: {:?}",
         saved.tensors.keys().collect::<Vec<_>>()
     );
-    let mut meta = saved.clone();
-    meta.put_meta("step", a.step);
-    let mut b = ApfTrainer::resume(c, &meta, &Device::flex()).expect("resumes");
-    a.step().expect("step");
-    b.step().expect("step");
-    let (ca, cb) = (a.checkpoint(), b.checkpoint());
-    for (name, value) in &ca.tensors {
-        assert_eq!(value, &cb.tensors[name], "{name} differs after resume");
-    }
+    assert_resume_is_exact(&mut a, c);
 }
 
 /// `gate.granularity = "gaussian"` (the spec's optional variant): `F_φ` has an eleventh output,

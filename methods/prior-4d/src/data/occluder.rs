@@ -22,7 +22,9 @@ pub fn stopping_frame(motion: &PoseSequence) -> usize {
     let last = motion.frames().saturating_sub(1);
     let end = DVec3::from(motion.translation(last));
     (0..=last)
-        .find(|&t| (t..=last).all(|k| DVec3::from(motion.translation(k)).distance(end) < 1e-3))
+        .rev()
+        .take_while(|&t| DVec3::from(motion.translation(t)).distance(end) < 1e-3)
+        .last()
         .unwrap_or(last)
 }
 
