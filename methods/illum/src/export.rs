@@ -9,7 +9,8 @@
 //!   `albedo_0..2`, `metallic`, `roughness`; normals in `nx ny nz`; zeros on the scene's rows);
 //! - `renders/test_<t>.png`: render | truth | albedo | scene occlusion for each scored
 //!   held-out frame, and `test.gif` of the renders;
-//! - `onnx/`: F_vis, F_ao and F_m's network with test vectors, checked in tract.
+//! - `onnx/`: F_vis, F_ao, F_m's hash encoding and F_m's network with test vectors, checked in
+//!   tract.
 
 use crate::IllumError;
 use crate::onnx::{IllumNetworks, export};
@@ -229,6 +230,7 @@ pub fn write_outputs(
                 visibility: &visibility,
                 shadow: &shadow,
                 materials: &materials,
+                cube: &trainer.mesh.cube,
             },
             ONNX_ROWS,
             &run.join("onnx"),

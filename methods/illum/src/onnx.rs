@@ -6,28 +6,32 @@
 //!   `[R, 1]` in (0, 1);
 //! - `shadow.onnx` (F_ao, Eq. 8): `shadow_inputs` `[R, 40 + d_z]` = `[γ(r) ‖ γ(δ) ‖ z]`
 //!   ([`crate::shadow::decoder_inputs`]) → `ao` `[R, 1]`;
+//! - `materials_code.onnx` (F_m's hash encoding, Eq. 2): `canonical_positions` `[R, 3]` (the
+//!   template's canonical space, in metres; any `R`) → `hash_code` `[R, L·F]`, the body's unit
+//!   cube and the trained table inside, written node by node by the engine
+//!   ([`splatzoo_train::onnx::export_hash_grid`]: burn-onnx cannot trace a hash encoding);
 //! - `materials.onnx` (F_m's network, Eq. 2): `hash_code` `[R, L·F]` → `metallic_roughness`
-//!   `[R, 2]` in (0, 1). The hash encoding itself (a gather of `L·8` table rows and a weighted
-//!   sum, [`splatzoo_models::networks::hash_grid::HashGrid`]) runs outside the graph: for a
-//!   fixed body its codes are constants, computed once.
+//!   `[R, 2]` in (0, 1). Chained after `materials_code.onnx` it is F_m from positions; for a
+//!   fixed body the codes are constants, computed once.
 //!
-//! Row counts are fixed at export (burn-onnx 0.22 does not slice dynamic axes); run more rows
-//! in chunks of that many.
+//! Row counts of the burn-onnx graphs are fixed at export (burn-onnx 0.22 does not slice
+//! dynamic axes); run more rows in chunks of that many.
 
 use crate::IllumError;
 use crate::shadow::ShadowDecoder;
 use crate::visibility::VisibilityNet;
 use burn::tensor::activation::sigmoid;
-use burn::tensor::{Device, Distribution, Tensor};
-use splatzoo_models::networks::hash_mlp::HashMlp;
+use burn::tensor::{Device, Distribution, Tensor, TensorData};
+use splatzoo_models::networks::hash_mlp::{HashMlp, UnitCube};
 use splatzoo_train::TrainError;
-use splatzoo_train::onnx::{ExportedGraph, OnnxError, export_rows};
+use splatzoo_train::onnx::{ExportedGraph, OnnxError, export_hash_grid, export_rows};
 use std::path::Path;
 
 /// Each graph's file stem, input and output names.
-pub const GRAPHS: [(&str, &str, &str); 3] = [
+pub const GRAPHS: [(&str, &str, &str); 4] = [
     ("visibility", "visibility_inputs", "visibility"),
     ("shadow", "shadow_inputs", "ao"),
+    ("materials_code", "canonical_positions", "hash_code"),
     ("materials", "hash_code", "metallic_roughness"),
 ];
 
@@ -41,10 +45,12 @@ pub struct IllumNetworks<'a> {
     pub visibility: &'a VisibilityNet,
     pub shadow: &'a ShadowDecoder,
     pub materials: &'a HashMlp,
+    /// The cube that maps canonical positions into F_m's grid ([`crate::human::BodyMesh`]'s).
+    pub cube: &'a UnitCube,
 }
 
-/// Writes the three graphs with two test vectors each (`rows` rows of normal samples) into
-/// `dir` and checks each in tract.
+/// Writes the four graphs with two test vectors each (`rows` rows of normal samples; positions
+/// uniform in the cube and a little beyond it) into `dir` and checks each in tract.
 pub fn export(
     nets: &IllumNetworks,
     rows: usize,
@@ -56,6 +62,18 @@ pub fn export(
             .map(|_| Tensor::random([rows.max(1), width], Distribution::Normal(0.0, 1.0), device))
             .collect()
     };
+    let cube = nets.cube;
+    let positions: Vec<Tensor<2>> = (0..2)
+        .map(|_| {
+            let unit =
+                Tensor::<2>::random([rows.max(1), 3], Distribution::Uniform(-0.05, 1.05), device);
+            let min = Tensor::<2>::from_data(
+                TensorData::new(cube.min.map(|v| v as f32).to_vec(), [1, 3]),
+                device,
+            );
+            unit * cube.size + min
+        })
+        .collect();
     let graphs = || -> Result<Vec<ExportedGraph>, OnnxError> {
         Ok(vec![
             export_rows(
@@ -72,11 +90,18 @@ pub fn export(
                 GRAPHS[1],
                 dir,
             )?,
+            export_hash_grid(
+                &nets.materials.grid,
+                Some(nets.cube),
+                &positions,
+                GRAPHS[2],
+                dir,
+            )?,
             export_rows(
                 nets.materials,
                 material_output,
                 &samples(nets.materials.grid.output_width()),
-                GRAPHS[2],
+                GRAPHS[3],
                 dir,
             )?,
         ])

@@ -4,10 +4,13 @@
 //! keyed `<name>.k`), and running it in tract, a pure-Rust ONNX runtime, to check every export
 //! against Burn before it is reported ([`verify`]). [`export_rows`] does all of it for the
 //! common case, a module's row-wise map `[R, I] → [R, O]`; a method with other graph shapes
-//! drives burn-onnx's `OnnxExporter` itself.
+//! drives burn-onnx's `OnnxExporter` itself. A hash encoding, which burn-onnx cannot trace, is
+//! written node by node ([`export_hash_grid`]).
 
+mod hash_grid;
 mod names;
 
+pub use hash_grid::{export_hash_grid, hash_grid_model};
 pub use names::{graph_io_names, rename_graph_io, run_graph_named, tract_io_names};
 
 use crate::checkpoint::Checkpoint;

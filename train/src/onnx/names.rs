@@ -196,7 +196,7 @@ pub fn run_graph_named(
     path: &Path,
     inputs: &[(&str, &[usize], &[f32])],
 ) -> Result<Vec<Named>, String> {
-    let fail = |e: tract_onnx::prelude::TractError| format!("{}: {e}", path.display());
+    let fail = |e: tract_onnx::prelude::TractError| format!("{}: {e:#}", path.display());
     let mut model = tract_onnx::onnx().model_for_path(path).map_err(fail)?;
     let (input_names, output_names) = tract_io_names(&model).map_err(fail)?;
     if let Some((name, ..)) = inputs

@@ -1,6 +1,6 @@
 //! The training engine's integration tests, one binary: the train-3dgs and render commands,
 //! losses, metrics, Adam and .ply files, training on every backend, and the skinned-Gaussian
-//! node, and the sweep.
+//! node, the sweep, and the hash encoding's ONNX graph.
 
 mod avatar;
 mod capture_pieces;
@@ -10,6 +10,7 @@ mod extremes;
 mod kl_density;
 mod losses_and_ply;
 mod modules;
+mod onnx_hash;
 mod skinned;
 mod sweep;
 mod training;
