@@ -178,4 +178,3 @@ fn the_hash_grid_graph_holds_at_the_coarsest_and_finest_levels() {
         exported.relative_error
     );
 }
-
