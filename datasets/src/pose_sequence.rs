@@ -154,6 +154,55 @@ impl PoseSequence {
     }
 }
 
+impl PoseSequence {
+    /// The sequence turned by `yaw_degrees` about the vertical (y) axis and moved along the
+    /// floor so that its first frame's root translation has `(x, z) = at`, its height kept: the
+    /// motion relative to its start is the same walk turned by the yaw. (The pelvis sits at
+    /// the rest pelvis plus the translation, and the rest pelvis's `x, z` are within a few
+    /// millimetres of zero on SMPL-family bodies, so the pelvis lands there too.)
+    pub fn placed(&self, at: [f64; 2], yaw_degrees: f64) -> Self {
+        let mut out = if yaw_degrees == 0.0 {
+            self.clone() // exactly: no round trip through rotation matrices
+        } else {
+            let (sin, cos) = yaw_degrees.to_radians().sin_cos();
+            self.rotated_world([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]])
+        };
+        if out.frames() > 0 {
+            let start = out.translation(0);
+            let shift = [at[0] - start[0], at[1] - start[2]];
+            for t in 0..out.frames() {
+                out.translations[3 * t] += shift[0];
+                out.translations[3 * t + 2] += shift[1];
+            }
+        }
+        out
+    }
+
+    /// `frames` frames of this sequence, looping (frame `f` is frame `f mod T`), each with the
+    /// shape `betas` (the driven body's own, not the sequence's). `None` for an empty sequence.
+    pub fn looped(&self, frames: usize, betas: &[f64]) -> Option<Self> {
+        let t = self.frames();
+        if t == 0 {
+            return None;
+        }
+        let width = 3 * self.joints;
+        let mut out = Self {
+            joints: self.joints,
+            poses: Vec::with_capacity(frames * width),
+            translations: Vec::with_capacity(frames * 3),
+            betas: Vec::with_capacity(frames * betas.len()),
+            shape_count: betas.len(),
+            fps: self.fps,
+        };
+        for f in 0..frames {
+            out.poses.extend_from_slice(self.pose(f % t));
+            out.translations.extend(self.translation(f % t));
+            out.betas.extend_from_slice(betas);
+        }
+        Some(out)
+    }
+}
+
 fn first_present(
     archive: &mut NpzArchive<std::io::BufReader<std::fs::File>>,
     path: &Path,

@@ -8,6 +8,7 @@
 
 use burn::tensor::Device;
 use splatzoo_apf_gs::trainer::ApfTrainer;
+use splatzoo_datasets::pose_sequence::{PoseSequence, write_pose_sequence};
 use splatzoo_illum::method::Illum;
 use splatzoo_nlf_gs::onnx;
 use splatzoo_nlf_gs::trainer::NlfTrainer;
@@ -624,7 +625,7 @@ fn train_illum_outputs_read_back_resume_across_processes_and_relight() {
         "only {share} of the canonical normals point outwards"
     );
     assert_eq!(renders_decode(&run_dir.join("renders")), 2);
-    for graph in ["visibility", "shadow", "materials"] {
+    for graph in ["visibility", "shadow", "materials_code", "materials"] {
         assert!(
             run_dir.join(format!("onnx/{graph}.onnx")).exists(),
             "{graph}"
@@ -693,6 +694,59 @@ fn train_illum_outputs_read_back_resume_across_processes_and_relight() {
         2,
         "frames 0 and 3 of B's video"
     );
+    // Driven by another walk (a y-up file of two frames), stood elsewhere on B's floor, turned.
+    let walk = dir.path().join("walk.npz");
+    let mut poses = vec![0.0; 2 * 72];
+    poses[72 + 12] = 0.4; // the second frame bends a leg joint
+    write_pose_sequence(
+        &walk,
+        &PoseSequence {
+            joints: 24,
+            poses,
+            translations: vec![5.0, 0.95, 5.0, 5.2, 0.95, 5.0],
+            betas: vec![0.0; 2 * 10],
+            shape_count: 10,
+            fps: Some(30.0),
+        },
+    )
+    .unwrap();
+    let placed_dir = dir.path().join("placed");
+    let placed = run(
+        dir.path(),
+        "transfer-illum",
+        &[
+            "--human",
+            saved.to_str().unwrap(),
+            "--scene",
+            scene_b.to_str().unwrap(),
+            "--stride",
+            "3",
+            "--poses",
+            walk.to_str().unwrap(),
+            "--up",
+            "y",
+            "--place",
+            "0.3,-0.2",
+            "--yaw",
+            "-45",
+            "--out",
+            placed_dir.to_str().unwrap(),
+        ],
+    );
+    assert!(placed.status.success(), "{}", text(&placed));
+    assert!(
+        text(&placed).contains("first root at (0.30, 0.95, -0.20) m, turned -45°"),
+        "{}",
+        text(&placed)
+    );
+    assert_eq!(renders_decode(&placed_dir), 2);
+    let refused = run(
+        dir.path(),
+        "transfer-illum",
+        &["--human", "h", "--scene", "s", "--place", "1,x"],
+    );
+    assert!(!refused.status.success());
+    assert!(text(&refused).contains("`x`"), "{}", text(&refused));
 }
 
 fn strs(v: &[String]) -> Vec<&str> {

@@ -243,3 +243,73 @@ fn driving_sequences_are_fitted_and_turned_upright() {
         (t[0] - u[0]).abs() < 1e-12 && (t[1] - u[2]).abs() < 1e-12 && (t[2] + u[1]).abs() < 1e-12
     );
 }
+
+/// Placing a walk: its first root lands at the floor point asked, its height kept; its
+/// displacement from the start and its heading turn by the yaw; other joints are untouched.
+/// Looping repeats frames modulo T with the driven body's shape.
+#[test]
+fn a_placed_sequence_starts_where_asked_and_walks_turned_by_the_yaw() {
+    use splatzoo_models::rotation_scalar::axis_angle_matrix;
+    let mut poses = vec![0.0; 3 * 72];
+    for t in 0..3 {
+        poses[72 * t] = 0.1 * t as f64; // a root that turns a little
+        poses[72 * t + 5] = 0.3; // another joint
+    }
+    let seq = PoseSequence {
+        joints: 24,
+        poses,
+        translations: vec![2.0, 0.9, -1.0, 2.5, 0.92, -1.0, 3.0, 0.9, -0.8],
+        betas: vec![0.2; 3 * 10],
+        shape_count: 10,
+        fps: Some(30.0),
+    };
+    let placed = seq.placed([-0.4, 1.5], 90.0);
+    let t0 = placed.translation(0);
+    assert!(
+        (t0[0] + 0.4).abs() < 1e-12 && (t0[1] - 0.9).abs() < 1e-12 && (t0[2] - 1.5).abs() < 1e-12,
+        "{t0:?}"
+    );
+    // The first step was +0.5 m along x; turned 90° about y, it is −0.5 m along z.
+    let t1 = placed.translation(1);
+    let step = [t1[0] - t0[0], t1[1] - t0[1], t1[2] - t0[2]];
+    assert!(
+        step[0].abs() < 1e-12 && (step[1] - 0.02).abs() < 1e-12 && (step[2] + 0.5).abs() < 1e-12,
+        "{step:?}"
+    );
+    // Each root turned by the yaw: R_y(90°) · R_root.
+    for t in 0..3 {
+        let before = axis_angle_matrix(seq.pose(t)[..3].try_into().unwrap());
+        let after = axis_angle_matrix(placed.pose(t)[..3].try_into().unwrap());
+        for j in 0..3 {
+            // Row 0 of R_y(90°)·R is R's row 2; row 2 is −R's row 0.
+            assert!((after[0][j] - before[2][j]).abs() < 1e-9);
+            assert!((after[2][j] + before[0][j]).abs() < 1e-9);
+            assert!((after[1][j] - before[1][j]).abs() < 1e-9);
+        }
+        assert_eq!(placed.pose(t)[3..], seq.pose(t)[3..]);
+    }
+    // No yaw: only the shift.
+    let moved = seq.placed([0.0, 0.0], 0.0);
+    assert_eq!(moved.pose(2), seq.pose(2));
+    assert!(
+        (moved.translation(2)[0] - 1.0).abs() < 1e-12
+            && (moved.translation(2)[2] - 0.2).abs() < 1e-12
+    );
+
+    let betas = [0.7; 10];
+    let looped = seq.looped(7, &betas).unwrap();
+    assert_eq!(looped.frames(), 7);
+    assert_eq!(looped.pose(5), seq.pose(2));
+    assert_eq!(looped.translation(6), seq.translation(0));
+    assert_eq!(looped.frame_betas(4), &betas);
+    let empty = PoseSequence {
+        joints: 24,
+        poses: vec![],
+        translations: vec![],
+        betas: vec![],
+        shape_count: 10,
+        fps: None,
+    };
+    assert!(empty.looped(3, &betas).is_none());
+    assert_eq!(empty.placed([1.0, 1.0], 30.0).frames(), 0);
+}

@@ -5,19 +5,30 @@
 //! room B, so B's frames are the ground truth of the transfer: the human-crop PSNR is printed
 //! for A lit by B's probes and, as the control, for A keeping A's own light.
 //!
+//!
+//! `--poses` drives A by another motion (an AMASS-layout `.npz`; `--up y` for files already
+//! y-up), looped over B's frames with A's own body shape; `--place X,Z` stands its first frame
+//! at that floor point of B (default: where B's person starts) and `--yaw` turns the walk about
+//! the vertical. A moved or re-driven human has no ground truth in B's video, so no PSNR is
+//! printed for it.
+//!
 //! ```sh
 //! cargo run --release --bin train-illum -- --name room-b --set data.room='"b"'
 //! cargo run --release --bin transfer-illum -- \
 //!     --human runs/illum/default/checkpoint.safetensors \
 //!     --scene runs/illum/room-b/checkpoint.safetensors
+//! cargo run --release --bin transfer-illum -- --human … --scene … \
+//!     --poses walk.npz --place 0.5,-1.0 --yaw 90
 //! ```
 
 use clap::Parser;
+use splatzoo_datasets::pose_sequence::{PoseSequence, UpAxis, load_driving_sequence};
 use splatzoo_illum::IllumError;
 use splatzoo_illum::eval::{person_box, untracked};
 use splatzoo_illum::method::Illum;
 use splatzoo_illum::render::{HumanLayer, SceneLayer, render_joint};
 use splatzoo_illum::steps::Nets;
+use splatzoo_illum::trainer::IllumTrainer;
 use splatzoo_rasterizer::{ColorMode, RasterSettings};
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
@@ -44,6 +55,65 @@ struct Args {
     /// Where the images go (default: `transfer/` beside the scene's checkpoint).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Another motion for A (an AMASS-layout `.npz`), looped over B's frames.
+    #[arg(long)]
+    poses: Option<PathBuf>,
+    /// The up axis of `--poses` (AMASS: z).
+    #[arg(long, value_enum, default_value_t = UpAxis::Z)]
+    up: UpAxis,
+    /// The floor point `X,Z` (metres, B's world) where A's first frame stands (default: where
+    /// B's person starts).
+    #[arg(long, value_parser = floor_point)]
+    place: Option<[f64; 2]>,
+    /// Turns A's walk about the vertical, degrees.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    yaw: f64,
+}
+
+/// `X,Z` as two finite numbers.
+fn floor_point(text: &str) -> Result<[f64; 2], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("`{v}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [x, z] if x.is_finite() && z.is_finite() => Ok([x, z]),
+        _ => Err(format!("expected `X,Z` (two finite numbers), got `{text}`")),
+    }
+}
+
+/// A's motion in B: B's body track, or `--poses` / `--place` / `--yaw` applied to it; `true`
+/// when it is B's own track (so B's frames are its ground truth).
+fn motion_in_b(
+    args: &Args,
+    a: &IllumTrainer,
+    b: &IllumTrainer,
+) -> Result<(PoseSequence, bool), TrainError> {
+    let track = b.track();
+    if args.poses.is_none() && args.place.is_none() && args.yaw == 0.0 {
+        return Ok((track.clone(), true));
+    }
+    let model = &a.mesh.model;
+    let source = match &args.poses {
+        Some(path) => {
+            load_driving_sequence(path, model.joint_count(), model.shape_count(), args.up)?
+        }
+        None => track.clone(),
+    };
+    let start = track.translation(0);
+    let at = args.place.unwrap_or([start[0], start[2]]);
+    let betas = a.track().frame_betas(0).to_vec();
+    let motion = source
+        .placed(at, args.yaw)
+        .looped(track.frames(), &betas)
+        .ok_or_else(|| IllumError::Input {
+            what: args
+                .poses
+                .as_ref()
+                .map_or("--poses".into(), |p| p.display().to_string()),
+            problem: "the pose sequence has no frames".into(),
+        })?;
+    Ok((motion, false))
 }
 
 fn load(path: &Path) -> Result<Illum, TrainError> {
@@ -97,6 +167,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
     let context = FrameContext { outputs: &[] };
     let human_a = a.stage2.as_ref().expect("checked");
     let sampling = a.config.stage2.sampling(false);
+    let (motion, truth) = motion_in_b(args, a, b)?;
     let (mut sums, mut count, mut frames) = ([0.0f64; 2], 0usize, Vec::new());
     for frame in b.capture.frames.iter().step_by(args.stride.max(1)) {
         let query = FrameQuery {
@@ -104,7 +175,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
             frame: frame.frame,
             time: 0.0,
         };
-        let pose = a.pose_of(b.track(), frame.frame, true);
+        let pose = a.pose_of(&motion, frame.frame, true);
         let canonical = untracked(human_a.human.render(&query, &context).splats);
         let scene = untracked(b.scene.render(&query, &context).splats);
         let settings = RasterSettings::new(frame.camera, ColorMode::Features);
@@ -133,7 +204,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
                 &settings,
                 b.capture.background,
             )?;
-            if let Some((rows, cols)) = person_box(frame) {
+            if let Some((rows, cols)) = person_box(frame).filter(|_| truth) {
                 let crop = |t: burn::tensor::Tensor<3>| t.slice([rows.clone(), cols.clone(), 0..3]);
                 sums[k] += psnr(
                     crop(maps.colour.clone()),
@@ -152,14 +223,29 @@ fn run(args: &Args) -> Result<(), TrainError> {
     }
     write_gif(&out.join("transfer.gif"), &frames, 5)?;
     let n = count.max(1) as f64;
-    println!(
-        "{} frames (transfer | A's own light | B's truth) to {}; human-crop PSNR against B's \
-         truth: lit by B's probes {:.2} dB, keeping A's light {:.2} dB",
-        frames.len(),
-        out.display(),
-        sums[0] / n,
-        sums[1] / n
-    );
+    if truth {
+        println!(
+            "{} frames (transfer | A's own light | B's truth) to {}; human-crop PSNR against \
+             B's truth: lit by B's probes {:.2} dB, keeping A's light {:.2} dB",
+            frames.len(),
+            out.display(),
+            sums[0] / n,
+            sums[1] / n
+        );
+    } else {
+        let t = motion.translation(0);
+        println!(
+            "{} frames (transfer | A's own light | B's video) to {}; A placed with its first \
+             root at ({:.2}, {:.2}, {:.2}) m, turned {:.0}°: no ground truth in B's video, so \
+             no PSNR",
+            frames.len(),
+            out.display(),
+            t[0],
+            t[1],
+            t[2],
+            args.yaw
+        );
+    }
     Ok(())
 }
 
