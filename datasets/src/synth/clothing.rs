@@ -11,6 +11,14 @@
 //! Every displacement stays within 15 mm. A scene renders its people with the relief while their
 //! poses, joints and the body model the methods fit stay the plain ones, so the relief is what a
 //! residual field has to learn.
+//!
+//! [`pose_relief`] adds clothing that moves with the pose, which no static offset can represent
+//! (Prior-4D's ΔV_pose, spec §7's "trouser swing driven by hip and knee angles"):
+//!
+//! - trousers bunching at each knee: a ring 15 mm out at full bend, 4 cm wide (Gaussian profile
+//!   about the rest knee height), growing with that knee's bend angle (full at 90°);
+//! - the jacket hem flaring with the stride: its ridge stands up to 15 mm further out as the
+//!   hips' bend angles sum to 60°.
 
 use crate::render::vertex_normals;
 use splatzoo_models::body::builtin_body;
@@ -68,14 +76,69 @@ pub fn relief() -> &'static [f32] {
     })
 }
 
+/// The knee bunching at full bend (m), its half width, the rest knee height, and the bend of
+/// full bunching (radians).
+const KNEE_RING: (f64, f64, f64, f64) = (0.015, 0.04, -0.678, std::f64::consts::FRAC_PI_2);
+
+/// How far the hem flares at full stride (m), and the summed hip bend of a full stride.
+const HEM_FLARE: (f64, f64) = (0.015, std::f64::consts::FRAC_PI_3);
+
+/// Thigh and shin bones of each leg (left, right) and its knee joint.
+const LEGS: [([u8; 2], usize); 2] = [([1, 4], 4), ([2, 5], 5)];
+
+/// Hip joints.
+const HIPS: [usize; 2] = [1, 2];
+
+/// The bend of joint `j` in an SMPL-layout axis-angle `pose`: its rotation angle.
+fn bend(pose: &[f64], j: usize) -> f64 {
+    pose.get(3 * j..3 * j + 3)
+        .map_or(0.0, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+}
+
+/// Each built-in body vertex's pose-dependent displacement along its normal (metres, outwards)
+/// at `pose` (SMPL-layout axis-angles, `[72]`): see the module doc. Zero in the rest pose.
+pub fn pose_relief(pose: &[f64]) -> Vec<f32> {
+    let body = builtin_body();
+    let t = &body.model.template;
+    let (ring, ring_width, knee_height, full_bend) = KNEE_RING;
+    let (flare, full_stride) = HEM_FLARE;
+    let (hem_height, hem_width, _) = HEM;
+    let knees = LEGS.map(|(_, knee)| ring * (bend(pose, knee) / full_bend).min(1.0));
+    let stride = flare * ((bend(pose, HIPS[0]) + bend(pose, HIPS[1])) / full_stride).min(1.0);
+    body.part_of_vertex
+        .iter()
+        .enumerate()
+        .map(|(v, part)| {
+            let y = f64::from(t[3 * v + 1]);
+            let knee: f64 = LEGS
+                .iter()
+                .zip(knees)
+                .filter(|((bones, _), _)| bones.contains(part))
+                .map(|(_, amplitude)| amplitude * (-((y - knee_height) / ring_width).powi(2)).exp())
+                .sum();
+            let hem = if CLOTHED_PARTS.contains(part) {
+                stride * (-((y - hem_height) / hem_width).powi(2)).exp()
+            } else {
+                0.0
+            };
+            (knee + hem) as f32
+        })
+        .collect()
+}
+
 /// A posed built-in body (`vertices`, triangles `faces`) with [`relief`] applied along its
-/// vertex normals.
-pub fn dress(vertices: &[[f32; 3]], faces: &[[u32; 3]]) -> Vec<[f32; 3]> {
+/// vertex normals, and the pose-dependent [`pose_relief`] of `pose` where given.
+pub fn dress(vertices: &[[f32; 3]], faces: &[[u32; 3]], pose: Option<&[f64]>) -> Vec<[f32; 3]> {
     let normals = vertex_normals(vertices, faces);
+    let moving = pose.map(pose_relief);
     vertices
         .iter()
         .zip(&normals)
         .zip(relief())
-        .map(|((p, n), &d)| [p[0] + d * n[0], p[1] + d * n[1], p[2] + d * n[2]])
+        .enumerate()
+        .map(|(v, ((p, n), &d))| {
+            let d = d + moving.as_ref().map_or(0.0, |m| m[v]);
+            [p[0] + d * n[0], p[1] + d * n[1], p[2] + d * n[2]]
+        })
         .collect()
 }

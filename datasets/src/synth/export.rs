@@ -115,6 +115,7 @@ fn scene_json(scene: &Scene, frames: &[usize]) -> serde_json::Value {
                 "accessory_label": accessory_label(k),
                 "tracked": p.tracked,
                 "clothed": p.clothed,
+                "pose_clothing": p.pose_clothing,
                 "identity": p.identity,
                 "accessories": p.accessories.iter()
                     .map(|a| json!({

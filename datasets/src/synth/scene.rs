@@ -59,6 +59,9 @@ pub struct Person {
     /// Whether the rendered body wears the clothing relief ([`clothing`]) on top of `frames`
     /// ([`Scene::body_vertices`]).
     pub clothed: bool,
+    /// Whether that clothing also moves with the pose ([`clothing::pose_relief`]; only with
+    /// `clothed`).
+    pub pose_clothing: bool,
 }
 
 /// Pelvis height of the built-in body with shape `betas` standing on y = 0.
@@ -119,6 +122,7 @@ impl Person {
             frames,
             tracked: true,
             clothed: false,
+            pose_clothing: false,
         }
     }
 }
@@ -214,12 +218,14 @@ impl Scene {
     }
 
     /// World positions of person `k`'s body as rendered at `frame`: the posed body model
-    /// (`frames[frame].vertices`), with the clothing relief where the person wears it.
+    /// (`frames[frame].vertices`), with the clothing relief where the person wears it (moving
+    /// with the frame's true pose where it does).
     pub fn body_vertices(&self, k: usize, frame: usize) -> Vec<[f32; 3]> {
         let person = &self.people[k];
         let posed = &person.frames[frame].vertices;
         if person.clothed {
-            clothing::dress(posed, triangles(&builtin_body().model.faces))
+            let pose = person.pose_clothing.then(|| person.motion.pose(frame));
+            clothing::dress(posed, triangles(&builtin_body().model.faces), pose)
         } else {
             posed.clone()
         }

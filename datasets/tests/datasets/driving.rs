@@ -382,3 +382,73 @@ fn crossing_walkers_stand_tall_and_the_passer_by_is_in_view() {
         "passer-by shows {passer_by} pixels at most"
     );
 }
+
+/// The pose-dependent clothing: nothing in the rest pose; a bent knee bunches the trousers
+/// around that knee only (15 mm at 90°, half at 45°); a stride flares the jacket hem; and a
+/// dressed scene's bodies move by it on top of the static relief where the person wears it.
+#[test]
+fn pose_dependent_clothing_follows_the_knees_and_the_stride() {
+    let body = splatzoo_models::body::builtin_body();
+    let rest = vec![0.0; 72];
+    assert!(clothing::pose_relief(&rest).iter().all(|&d| d == 0.0));
+    let knee = |angle: f64| {
+        let mut pose = rest.clone();
+        pose[3 * 4] = angle; // the left knee bends about x
+        clothing::pose_relief(&pose)
+    };
+    let (half, full, over) = (
+        knee(0.25 * std::f64::consts::PI),
+        knee(0.5 * std::f64::consts::PI),
+        knee(2.0),
+    );
+    let most = |r: &[f32]| r.iter().fold(0.0f32, |m, &d| m.max(d));
+    assert!((most(&full) - 0.015).abs() < 1e-3, "{}", most(&full));
+    assert!((most(&half) - 0.5 * most(&full)).abs() < 1e-4);
+    assert_eq!(most(&over), most(&full), "capped at full bend");
+    for (v, &d) in full.iter().enumerate() {
+        if d > 1e-4 {
+            let part = body.part_of_vertex[v];
+            let y = body.model.template[3 * v + 1];
+            assert!([1, 4].contains(&part), "vertex {v} of bone {part} moved");
+            assert!((y + 0.678).abs() < 0.15, "vertex {v} at height {y}");
+        }
+    }
+    let mut stride = rest.clone();
+    stride[3] = 0.4; // left hip forward
+    stride[6] = -0.4; // right hip back
+    let flare = clothing::pose_relief(&stride);
+    let flared: Vec<usize> = (0..flare.len()).filter(|&v| flare[v] > 1e-3).collect();
+    assert!(!flared.is_empty());
+    assert!(
+        flared
+            .iter()
+            .all(|&v| (body.model.template[3 * v + 1] + 0.15).abs() < 0.05)
+    );
+    assert!(most(&flare) > 0.01 && most(&flare) <= 0.0151);
+
+    let mut scene = driving().clone();
+    let k = 0;
+    let frame = (0..scene.people[k].frames.len())
+        .max_by(|&a, &b| {
+            let bend = |f: usize| most(&clothing::pose_relief(scene.people[k].motion.pose(f)));
+            bend(a).total_cmp(&bend(b))
+        })
+        .unwrap();
+    let static_only = scene.body_vertices(k, frame);
+    scene.people[k].pose_clothing = true;
+    let moving = scene.body_vertices(k, frame);
+    let extra = static_only
+        .iter()
+        .zip(&moving)
+        .map(|(&p, &q)| distance(p, q))
+        .fold(0.0f32, f32::max);
+    let expected = most(&clothing::pose_relief(scene.people[k].motion.pose(frame)));
+    assert!(
+        expected > 0.005,
+        "the walk bends a knee by only {expected} m of bunching"
+    );
+    assert!(
+        (extra - expected).abs() < 1e-3,
+        "moved {extra} m, expected {expected}"
+    );
+}

@@ -21,7 +21,9 @@
 //! and the evaluation camera live in scene units (metres × `scene_scale`, SfM's arbitrary scale)
 //! while the body lives in metres, so the true global scale is σ* = `scene_scale` (for a body
 //! of the true height).
-//! Every person wears the static clothing relief the naked body model lacks.
+//! Every person wears the static clothing relief the naked body model lacks; with
+//! `pose_clothing` it also moves with the pose (bunching at bent knees, a hem flaring with the
+//! stride), which only ΔV_pose can represent.
 
 pub mod occluder;
 mod sensors;
@@ -92,6 +94,10 @@ pub struct Prior4dDataConfig {
     /// A cabinet in front of where the person stops, hiding her legs from the acting camera
     /// (part of the room, so in every video).
     pub occluder: bool,
+    /// Clothing that also moves with the pose (trousers bunching at bent knees, the jacket hem
+    /// flaring with the stride: `splatzoo_datasets::synth::clothing::pose_relief`), what
+    /// ΔV_pose is for (spec §7's clothing signal).
+    pub pose_clothing: bool,
 }
 
 impl Default for Prior4dDataConfig {
@@ -116,6 +122,7 @@ impl Default for Prior4dDataConfig {
             mask_jitter: 1,
             supersample: 2,
             occluder: false,
+            pose_clothing: false,
         }
     }
 }
@@ -354,6 +361,7 @@ impl Prior4dDataConfig {
         }
         .build(device);
         acting_scene.people[0].clothed = true;
+        acting_scene.people[0].pose_clothing = self.pose_clothing;
         let fps = acting_scene.fps;
         let lens_camera = acting_scene.tracks[0].cameras[0];
         let fov = 2.0
@@ -432,6 +440,7 @@ impl Prior4dDataConfig {
             device,
         );
         scanned.clothed = true;
+        scanned.pose_clothing = self.pose_clothing;
         let scan_frames = scanned.motion.frames().min(self.scan_views);
         let human_scan_scene = Scene {
             frame_count: scan_frames,

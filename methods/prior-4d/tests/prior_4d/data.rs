@@ -211,3 +211,75 @@ fn the_cabinet_hides_the_standing_persons_legs() {
         lowest(&open)
     );
 }
+
+/// `data.pose_clothing`: the acting video's person wears clothing that moves with her pose, so
+/// her frames change where her knees bend (her pixels, and the room only at her shadow's
+/// edge), while the neutral-pose human scan barely changes.
+#[test]
+fn pose_dependent_clothing_changes_the_acting_frames_where_the_knees_bend() {
+    let build = |pose_clothing: bool| {
+        Prior4dDataConfig {
+            width: 64,
+            height: 48,
+            acting_frames: 12,
+            scene_views: 4,
+            scan_views: 4,
+            supersample: 1,
+            mask_jitter: 0,
+            pose_clothing,
+            ..Prior4dDataConfig::default()
+        }
+        .build(&Device::flex())
+        .expect("an acting capture")
+    };
+    let (plain, dressed) = (build(false), build(true));
+    let pixels = |t: &burn::tensor::Tensor<3>| t.clone().into_data().try_into_vec::<f32>().unwrap();
+    let mut changed_frames = 0;
+    for (a, b) in plain.acting.iter().zip(&dressed.acting) {
+        let (x, y) = (pixels(&a.image), pixels(&b.image));
+        let mask = a.mask.clone().into_data().try_into_vec::<f32>().unwrap();
+        // Her silhouette grows by up to 15 mm (a third of a pixel here): pixels next to it may
+        // turn, so "the room" is what lies over a pixel away from her mask.
+        let (w, h) = (64usize, 48usize);
+        let near = |i: usize| {
+            let (r, c) = ((i / w) as i64, (i % w) as i64);
+            (-1..=1).any(|dr| {
+                (-1..=1).any(|dc| {
+                    let (rr, cc) = (r + dr, c + dc);
+                    (0..h as i64).contains(&rr)
+                        && (0..w as i64).contains(&cc)
+                        && mask[rr as usize * w + cc as usize] > 0.0
+                })
+            })
+        };
+        let mut room_changed = 0;
+        let mut on_person = 0.0f32;
+        for (i, (p, q)) in x.iter().zip(&y).enumerate() {
+            let d = (p - q).abs();
+            if near(i / 3) {
+                on_person = on_person.max(d);
+            } else {
+                room_changed += usize::from(d > 0.01);
+            }
+        }
+        // Only the edges of her cast shadow may move.
+        assert!(
+            room_changed < 10,
+            "{room_changed} values of the room changed"
+        );
+        changed_frames += usize::from(on_person > 0.01);
+    }
+    assert!(
+        changed_frames >= 3,
+        "only {changed_frames} frames changed on the person"
+    );
+    for (a, b) in plain.human_scan.iter().zip(&dressed.human_scan) {
+        let (x, y) = (pixels(&a.image), pixels(&b.image));
+        let most = x
+            .iter()
+            .zip(&y)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0f32, f32::max);
+        assert!(most < 0.05, "the neutral scan changed by {most}");
+    }
+}
