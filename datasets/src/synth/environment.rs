@@ -53,6 +53,18 @@ pub fn cabinet(seed: u64, footprint_centre: DVec3, size: DVec3, yaw: f64) -> Pro
     Prop::textured("cabinet", mesh, texture, tile)
 }
 
+/// A flat, plainly painted rectangle (`origin`, edges `u` and `v`; it faces `u × v`): a surface
+/// with no texture at all, where photometric reconstruction has nothing to lock onto.
+pub fn plain_panel(origin: DVec3, u: DVec3, v: DVec3, colour: [f32; 3]) -> Prop {
+    let mut mesh = MeshBuilder::default();
+    mesh.quad(origin, u, v, colour);
+    Prop {
+        name: "plain panel".into(),
+        mesh,
+        surface: Surface::Colours,
+    }
+}
+
 /// Static geometry and what shows where it is missing.
 #[derive(Debug, Clone, Default)]
 pub struct Environment {

@@ -27,6 +27,7 @@
 
 pub mod occluder;
 mod sensors;
+pub mod textureless;
 
 pub use sensors::{rest_pelvis, scaled_camera, to_camera_space};
 
@@ -53,6 +54,7 @@ use splatzoo_models::body::fit::body25_targets;
 use splatzoo_rasterizer::Camera;
 use splatzoo_train::views::InitPoints;
 use splatzoo_train::views::init_points::back_project;
+use textureless::textureless_panels;
 
 /// Every knob of the synthetic capture.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -98,6 +100,9 @@ pub struct Prior4dDataConfig {
     /// flaring with the stride: `splatzoo_datasets::synth::clothing::pose_relief`), what
     /// ΔV_pose is for (spec §7's clothing signal).
     pub pose_clothing: bool,
+    /// Plainly painted panels over the walls behind the person in the evaluation view (spec
+    /// §7's textureless wall: [`textureless::textureless_panels`]).
+    pub textureless_wall: bool,
 }
 
 impl Default for Prior4dDataConfig {
@@ -123,6 +128,7 @@ impl Default for Prior4dDataConfig {
             supersample: 2,
             occluder: false,
             pose_clothing: false,
+            textureless_wall: false,
         }
     }
 }
@@ -375,6 +381,17 @@ impl Prior4dDataConfig {
                 self.seed,
             );
             acting_scene.environment.props.push(cabinet);
+        }
+        if self.textureless_wall {
+            let fixed = acting_scene.tracks[1].cameras[0];
+            let panels = textureless_panels(&acting_scene.environment, &fixed);
+            if panels.is_empty() {
+                return Err(Prior4dError::input(
+                    "data.textureless_wall",
+                    "the room has no wall ahead of the evaluation camera",
+                ));
+            }
+            acting_scene.environment.props.extend(panels);
         }
 
         // The scene scan: the room without the person.

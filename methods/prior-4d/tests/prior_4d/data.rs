@@ -283,3 +283,73 @@ fn pose_dependent_clothing_changes_the_acting_frames_where_the_knees_bend() {
         assert!(most < 0.05, "the neutral scan changed by {most}");
     }
 }
+
+/// `data.textureless_wall`: a plain panel covers the wall behind her in the evaluation view, so
+/// the room's pixels there lose the wallpaper's pattern (its local contrast falls), while the
+/// scene scan films it too (it is part of the room).
+#[test]
+fn the_textureless_wall_is_behind_her_in_the_evaluation_view() {
+    let build = |textureless_wall: bool| {
+        Prior4dDataConfig {
+            width: 96,
+            height: 72,
+            acting_frames: 2,
+            scene_views: 8,
+            scan_views: 4,
+            supersample: 1,
+            mask_jitter: 0,
+            textureless_wall,
+            ..Prior4dDataConfig::default()
+        }
+        .build(&Device::flex())
+        .expect("a capture")
+    };
+    let (papered, painted) = (build(false), build(true));
+    let (w, h) = (96usize, 72usize);
+    let rgb = |t: &burn::tensor::Tensor<3>| t.clone().into_data().try_into_vec::<f32>().unwrap();
+    let (before, after) = (rgb(&papered.eval[0].image), rgb(&painted.eval[0].image));
+    // The panel's pixels: where the two views differ (and their right neighbour too).
+    let differs = |i: usize| (0..3).any(|k| (before[3 * i + k] - after[3 * i + k]).abs() > 0.02);
+    let panel: Vec<usize> = (0..w * h)
+        .filter(|&i| i % w + 1 < w && differs(i) && differs(i + 1))
+        .collect();
+    assert!(
+        panel.len() * 20 > w * h,
+        "the panel covers only {} pixels",
+        panel.len()
+    );
+    // Mean |horizontal difference| there: the wallpaper's pattern, then none.
+    let contrast = |rgb: &[f32]| {
+        panel
+            .iter()
+            .map(|&i| {
+                (0..3)
+                    .map(|k| f64::from((rgb[3 * (i + 1) + k] - rgb[3 * i + k]).abs()))
+                    .sum::<f64>()
+            })
+            .sum::<f64>()
+            / panel.len() as f64
+    };
+    let (papered_contrast, painted_contrast) = (contrast(&before), contrast(&after));
+    assert!(
+        painted_contrast < 0.5 * papered_contrast,
+        "local contrast {papered_contrast:.4} → {painted_contrast:.4}"
+    );
+    let changed = |a: &burn::tensor::Tensor<3>, b: &burn::tensor::Tensor<3>| {
+        let (a, b) = (
+            a.clone().into_data().try_into_vec::<f32>().unwrap(),
+            b.clone().into_data().try_into_vec::<f32>().unwrap(),
+        );
+        a.iter()
+            .zip(&b)
+            .filter(|(x, y)| (*x - *y).abs() > 0.02)
+            .count()
+    };
+    let scan_changed: usize = papered
+        .scene_scan
+        .iter()
+        .zip(&painted.scene_scan)
+        .map(|(a, b)| changed(&a.image, &b.image))
+        .sum();
+    assert!(scan_changed > 0, "the scene scan never sees the panel");
+}
