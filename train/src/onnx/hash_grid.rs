@@ -71,61 +71,40 @@ impl Builder {
         output
     }
 
-    fn initializer(&mut self, tensor: TensorProto) -> String {
+    /// An initializer of `data_type` and shape `dims` from its values' little-endian bytes
+    /// (`raw_data`, which every reader takes: tract 0.23.9 reads a uint64 initializer's numbers
+    /// from `int64_data`, the ONNX spec from `uint64_data`).
+    fn initializer<const N: usize>(
+        &mut self,
+        data_type: i32,
+        dims: &[usize],
+        values: impl ExactSizeIterator<Item = [u8; N]>,
+    ) -> String {
+        assert_eq!(
+            dims.iter().product::<usize>(),
+            values.len(),
+            "initializer shape"
+        );
         let name = self.fresh();
-        let mut tensor = tensor;
+        let mut tensor = TensorProto::new();
         tensor.name = name.clone();
+        tensor.data_type = data_type;
+        tensor.dims = dims.iter().map(|&d| d as i64).collect();
+        tensor.raw_data = values.flatten().collect::<Vec<u8>>().into();
         self.graph.initializer.push(tensor);
         name
     }
 
     fn floats(&mut self, dims: &[usize], values: &[f32]) -> String {
-        assert_eq!(
-            dims.iter().product::<usize>(),
-            values.len(),
-            "initializer shape"
-        );
-        let mut tensor = TensorProto::new();
-        tensor.data_type = FLOAT;
-        tensor.dims = dims.iter().map(|&d| d as i64).collect();
-        tensor.raw_data = values
-            .iter()
-            .flat_map(|v| v.to_le_bytes())
-            .collect::<Vec<u8>>()
-            .into();
-        self.initializer(tensor)
+        self.initializer(FLOAT, dims, values.iter().map(|v| v.to_le_bytes()))
     }
 
     fn ints(&mut self, dims: &[usize], values: &[i64]) -> String {
-        assert_eq!(
-            dims.iter().product::<usize>(),
-            values.len(),
-            "initializer shape"
-        );
-        let mut tensor = TensorProto::new();
-        tensor.data_type = INT64;
-        tensor.dims = dims.iter().map(|&d| d as i64).collect();
-        tensor.int64_data = values.to_vec();
-        self.initializer(tensor)
+        self.initializer(INT64, dims, values.iter().map(|v| v.to_le_bytes()))
     }
 
     fn unsigned(&mut self, dims: &[usize], values: &[u64]) -> String {
-        assert_eq!(
-            dims.iter().product::<usize>(),
-            values.len(),
-            "initializer shape"
-        );
-        let mut tensor = TensorProto::new();
-        tensor.data_type = UINT64;
-        tensor.dims = dims.iter().map(|&d| d as i64).collect();
-        // Raw bytes: tract 0.23.9 reads a uint64 initializer's numbers from `int64_data`, the
-        // ONNX spec from `uint64_data`; both read `raw_data`.
-        tensor.raw_data = values
-            .iter()
-            .flat_map(|v| v.to_le_bytes())
-            .collect::<Vec<u8>>()
-            .into();
-        self.initializer(tensor)
+        self.initializer(UINT64, dims, values.iter().map(|v| v.to_le_bytes()))
     }
 
     fn scalar(&mut self, value: f32) -> String {

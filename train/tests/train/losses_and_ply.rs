@@ -298,7 +298,7 @@ fn ply_extras_round_trip_beside_the_gaussians() {
 }
 
 /// A seed from the clock, printed so that a failure can be replayed.
-fn fresh_seed() -> u64 {
+pub fn fresh_seed() -> u64 {
     let seed = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .unwrap()

@@ -3,22 +3,13 @@
 //! points outside the cube and on its faces, the cube map folded in, any row count, a finest
 //! level at the 2²¹-cell cap (int64 products near 2⁵³), and a clear error for no samples.
 
+use crate::losses_and_ply::fresh_seed;
 use burn::module::Param;
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_models::networks::hash_grid::{HashGrid, HashGridConfig, hash_grid_reference};
 use splatzoo_models::networks::hash_mlp::UnitCube;
 use splatzoo_train::onnx::{export_hash_grid, io_names, run_graph};
-
-/// A seed from the clock, printed so that a failure can be replayed.
-fn fresh_seed() -> u64 {
-    let seed = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_nanos() as u64;
-    println!("seed {seed}");
-    seed
-}
 
 /// A grid whose table holds values in ±1 (the default ±1e-4 would hide errors).
 fn grid_with_values(
