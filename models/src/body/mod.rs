@@ -4,6 +4,7 @@
 pub mod builtin;
 pub mod fit;
 pub mod lbs;
+pub mod marks;
 pub mod model;
 pub mod npz;
 pub mod pkl;
@@ -12,6 +13,7 @@ pub mod skeleton;
 
 pub use builtin::{BuiltinBody, builtin_body};
 pub use lbs::{BodyTensors, PoseInput, Posed};
+pub use marks::SurfaceMarks;
 pub use model::{BodyKind, BodyModel, BodyModelError};
 pub use npz::{load_npz, save_npz};
 pub use pkl::load_pkl;

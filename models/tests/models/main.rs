@@ -9,6 +9,7 @@ mod fit;
 mod hash_grid;
 mod knn;
 mod lbs;
+mod marks;
 mod networks;
 mod normals;
 mod npz;
