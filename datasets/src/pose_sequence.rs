@@ -9,7 +9,8 @@
 //!
 //! A sequence made for a bigger skeleton drives a smaller one the way AMASS users do: an SMPL-H
 //! or SMPL-X sequence on a 24-joint body keeps its 22 body joints and leaves the two hand joints
-//! at rest. Anything else that does not fit is an error naming the key and the shape expected.
+//! at rest; an SMPL sequence drives SMPL-H/X by its 22 body joints, the rest at rest. Anything
+//! else that does not fit is an error naming the key and the shape expected.
 
 use crate::DatasetError;
 use crate::files::write_atomically;
@@ -71,6 +72,14 @@ impl PoseSequence {
             let mut out = vec![0.0; t * 72];
             for f in 0..t {
                 out[f * 72..f * 72 + 66].copy_from_slice(&self.pose(f)[..66]);
+            }
+            out
+        } else if self.joints == 24 && (joints == 52 || joints == 55) {
+            // An SMPL-layout sequence on SMPL-H/X: the 22 body joints, hands (and SMPL-X's jaw
+            // and eyes) at rest.
+            let mut out = vec![0.0; t * 3 * joints];
+            for f in 0..t {
+                out[f * 3 * joints..f * 3 * joints + 66].copy_from_slice(&self.pose(f)[..66]);
             }
             out
         } else {

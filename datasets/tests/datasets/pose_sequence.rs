@@ -165,13 +165,35 @@ fn a_sequence_that_cannot_drive_the_model_says_so() {
         fps: None,
     };
     let e = seq
-        .for_model(55, 10, Path::new("walk.npz"))
+        .for_model(40, 10, Path::new("walk.npz"))
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("walk.npz") && e.contains("`poses`") && e.contains("[T, 165]"),
+        e.contains("walk.npz") && e.contains("`poses`") && e.contains("[T, 120]"),
         "{e}"
     );
+}
+
+/// An SMPL sequence drives SMPL-H and SMPL-X by its 22 body joints; hands, jaw and eyes rest.
+#[test]
+fn an_smpl_sequence_drives_the_bigger_skeletons() {
+    let poses = ramp(2 * 72, 0.01);
+    let seq = PoseSequence {
+        joints: 24,
+        poses: poses.iter().map(|&p| f64::from(p)).collect(),
+        translations: vec![0.0; 6],
+        betas: vec![],
+        shape_count: 0,
+        fps: None,
+    };
+    for joints in [52, 55] {
+        let big = seq.for_model(joints, 10, Path::new("walk.npz")).unwrap();
+        assert_eq!((big.joints, big.frames()), (joints, 2));
+        for f in 0..2 {
+            assert_eq!(&big.pose(f)[..66], &seq.pose(f)[..66]);
+            assert!(big.pose(f)[66..].iter().all(|&x| x == 0.0), "{joints}");
+        }
+    }
 }
 
 #[test]
