@@ -170,7 +170,7 @@ pub fn animate(
         .validate()
         .map_err(|m| AagError::input("animation config", m))?;
     let device = set.means.device();
-    let faces = &capture.bank.faces;
+    let faces = &capture.body.faces;
     let rows = set.to_rows();
     let means: Vec<[f32; 3]> = (0..rows.len()).map(|i| rows.mean(i)).collect();
     let binding = bind(&means, &capture.canonical, faces, config.cull_distance);
@@ -267,7 +267,7 @@ fn score_pose(
     let body = capture.posed_body(pose, device);
     let start = Instant::now();
     let posed = GaussianSet::from_rows(
-        &binding.pose(rows, &body, &capture.bank.faces, config.rotate),
+        &binding.pose(rows, &body, &capture.body.faces, config.rotate),
         device,
     );
     let renders = render_views(&posed.splats(), cameras)?;

@@ -4,11 +4,13 @@
 //! face-loss identity from the fixed face camera (U7) with its face mask, the body's depth from
 //! that camera (D_m of U6), and the held-out views the avatar is scored on.
 //!
-//! The avatar's body is the body prior: the built-in body with the shape fitted to the
-//! portrait's keypoints ([`crate::portrait_fit`]). Units: its canonical mesh is normalised as
+//! The avatar's body is the body prior: the avatar's body model ([`AvatarBody`]: the built-in
+//! body, or a user's SMPL-X file) with the shape fitted to the portrait's keypoints
+//! ([`crate::portrait_fit`]); its face region places the face camera and masks the face. Units: its canonical mesh is normalised as
 //! HumanGaussian does (bounding box centred at the origin, longest side 0.6 · 1.1¹⁰ = 1.5562);
 //! every identity shares that transform, and `metres_per_unit` returns to metres.
 
+use crate::body_prior::AvatarBody;
 use crate::cameras::orbit_camera;
 use crate::error::AagError;
 use crate::oracle::Targets;
@@ -22,6 +24,7 @@ use splatzoo_datasets::synth::identity::Identity;
 use splatzoo_datasets::synth::scene::posed_once;
 use splatzoo_models::body::builtin_body;
 use splatzoo_rasterizer::Camera;
+use std::path::PathBuf;
 
 /// Longest side of the normalised body (HumanGaussian: 0.6 · 1.1¹⁰).
 pub const BODY_EXTENT: f64 = 1.556_245_1;
@@ -91,6 +94,12 @@ pub struct PortraitConfig {
     /// The oracle shows the prompted identity with another skin and hair tone from each side
     /// (the spec's `view_variants`; held-out scores use the identity as it is).
     pub view_variants: bool,
+    /// The avatar's body model: a user's SMPL / SMPL-H / SMPL-X `.npz` or `.pkl` (none: the
+    /// built-in body). The identities stay on the built-in body; this one is fitted to them.
+    pub body_model: Option<PathBuf>,
+    /// Surface marks of `body_model` (landmarks and optionally the face vertices, JSON; see
+    /// `splatzoo_models::body::marks`), for a mesh outside the SMPL-family tables.
+    pub body_marks: Option<PathBuf>,
 }
 
 impl Default for PortraitConfig {
@@ -114,6 +123,8 @@ impl Default for PortraitConfig {
             keypoint_noise_px: 2.0,
             portrait_size: 512,
             view_variants: false,
+            body_model: None,
+            body_marks: None,
         }
     }
 }
@@ -139,6 +150,13 @@ impl PortraitConfig {
         }
         if self.eval_azimuths == 0 || self.eval_elevations.is_empty() {
             return Err("data: at least one held-out azimuth and elevation".into());
+        }
+        if self.body_model.is_some() && !self.body_fit {
+            return Err(
+                "data: body_fit = false takes the identity's true built-in shape, which a user's \
+                 body_model does not have: keep body_fit = true"
+                    .into(),
+            );
         }
         Ok(())
     }
@@ -290,7 +308,9 @@ impl Targets for IdentityBank {
 pub struct PortraitCapture {
     pub config: PortraitConfig,
     pub bank: IdentityBank,
-    /// The avatar's canonical mesh (the prompted identity's body, normalised): `[V, 3]`.
+    /// The avatar's body model and its marks.
+    pub body: AvatarBody,
+    /// The avatar's canonical mesh (the body prior, normalised): `[V, 3]`, faces `body.faces`.
     pub canonical: Vec<[f32; 3]>,
     /// `metres = units × metres_per_unit` (plus the centre).
     pub metres_per_unit: f64,
@@ -349,18 +369,18 @@ impl PortraitCapture {
     /// Identity `label`'s mesh posed by the 72-D SMPL `pose` (no translation), in the
     /// capture's normalised units.
     pub fn posed_vertices(&self, label: usize, pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
-        self.posed_shape(&self.bank.identities[label].identity.betas, pose, device)
+        let betas = &self.bank.identities[label].identity.betas;
+        self.normalised(&posed_once(betas, pose, device).vertices)
     }
 
-    /// The body prior's mesh (the avatar's body) posed by `pose`, normalised.
+    /// The body prior's mesh (the avatar's body, faces `body.faces`) posed by `pose`, normalised.
     pub fn posed_body(&self, pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
-        self.posed_shape(&self.body_betas, pose, device)
+        self.normalised(&self.body.posed(&self.body_betas, pose, device).vertices)
     }
 
-    fn posed_shape(&self, betas: &[f64], pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
+    fn normalised(&self, vertices: &[[f32; 3]]) -> Vec<[f32; 3]> {
         let scale = (1.0 / self.metres_per_unit) as f32;
-        posed_once(betas, pose, device)
-            .vertices
+        vertices
             .iter()
             .map(|p| [0, 1, 2].map(|c| (p[c] - self.centre[c]) * scale))
             .collect()
@@ -377,9 +397,11 @@ impl PortraitCapture {
             .map(|id| posed_once(&id.betas, &pose, device).vertices)
             .collect();
         // The body prior: fitted from the portrait's keypoints, or the truth.
+        let avatar = AvatarBody::load(config.body_model.as_deref(), config.body_marks.as_deref())?;
         let truth = &identities[config.prompt].betas;
         let body_fit = if config.body_fit {
             Some(fit_portrait(
+                &avatar,
                 truth,
                 &pose,
                 config.portrait_size,
@@ -393,7 +415,7 @@ impl PortraitCapture {
         let body_betas = body_fit
             .as_ref()
             .map_or_else(|| truth.clone(), |f| f.betas.clone());
-        let prior = posed_once(&body_betas, &pose, device);
+        let prior = avatar.posed(&body_betas, &pose, device);
         // HumanGaussian's normalisation, from the body prior's mesh.
         let (reference, head) = (&prior.vertices, &prior.joints[HEAD_JOINT]);
         let mut lo = [f32::INFINITY; 3];
@@ -453,7 +475,7 @@ impl PortraitCapture {
         // U7: the face camera looks at the face-region centroid from d_f along +z.
         let mut centroid = [0.0f64; 3];
         let mut count = 0.0f64;
-        for (v, on) in canonical.iter().zip(&body.face_region) {
+        for (v, on) in canonical.iter().zip(&avatar.marks.face_region) {
             if *on {
                 for c in 0..3 {
                     centroid[c] += f64::from(v[c]);
@@ -461,7 +483,13 @@ impl PortraitCapture {
                 count += 1.0;
             }
         }
-        let centroid = centroid.map(|c| c / count.max(1.0));
+        if count == 0.0 {
+            return Err(AagError::input(
+                avatar.source.clone(),
+                "the body's face region is empty: the face camera has nothing to look at",
+            ));
+        }
+        let centroid = centroid.map(|c| c / count);
         let face_camera = orbit_camera(
             centroid,
             0.0,
@@ -472,7 +500,8 @@ impl PortraitCapture {
         );
         let face_render = bank.render(config.face_identity, &face_camera);
         let face_crop = planar_rgb(&face_render);
-        let indicator: Vec<[f32; 3]> = body
+        let indicator: Vec<[f32; 3]> = avatar
+            .marks
             .face_region
             .iter()
             .map(|&on| if on { [1.0; 3] } else { [0.0; 3] })
@@ -480,7 +509,7 @@ impl PortraitCapture {
         let mask_render = render(
             &[MeshInstance {
                 positions: &canonical,
-                faces: &bank.faces,
+                faces: &avatar.faces,
                 albedo: Albedo::PerVertex(&indicator),
                 label: 1,
                 smooth: true,
@@ -523,6 +552,7 @@ impl PortraitCapture {
         Ok(Self {
             config: config.clone(),
             bank,
+            body: avatar,
             canonical,
             metres_per_unit: 1.0 / f64::from(scale),
             centre,

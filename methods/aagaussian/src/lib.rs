@@ -28,6 +28,7 @@
 
 pub mod animate;
 pub mod binding;
+pub mod body_prior;
 pub mod cameras;
 pub mod config;
 pub mod data;

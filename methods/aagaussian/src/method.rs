@@ -97,9 +97,14 @@ impl Aag {
             guidance,
             match &capture.body_fit {
                 Some(fit) => format!(
-                    "body prior: the built-in body fitted to the {}² portrait's BODY_25 keypoints \
-                     ({} px noise): reprojection {:.2} px, joints {:.0} mm from the truth, rest \
-                     height {:+.1} %; {:?} canonical pose, {:.4} m per unit",
+                    "body prior: the {} body ({:?}, {} vertices, {} joints) fitted to the {}² \
+                     portrait's BODY_25 keypoints ({} px noise): reprojection {:.2} px, joints \
+                     {:.0} mm from the truth, rest height {:+.1} %; {:?} canonical pose, {:.4} m \
+                     per unit",
+                    capture.body.source,
+                    capture.body.model.kind,
+                    capture.body.model.vertex_count(),
+                    capture.body.model.joint_count(),
                     data.portrait_size,
                     data.keypoint_noise_px,
                     fit.reprojection_rms_px,

@@ -1,10 +1,13 @@
 //! The body prior from the portrait (§3.2 of AAGaussian; spec §7): the prompted identity
 //! photographed from the front in its canonical pose by a known camera, its BODY_25 keypoints
 //! projected from the true mesh with pixel noise (what an OpenPose detector would give), and
-//! the keypoint fit of [`splatzoo_models::body::fit`] recovering the body's shape with the
-//! floor known. The avatar's canonical mesh is the fitted body, never the true one; the
-//! identity's truth only grades the fit.
+//! the keypoint fit of [`splatzoo_models::body::fit`] recovering the shape of the avatar's body
+//! model ([`AvatarBody`]: the built-in body, or a user's SMPL-X) with the floor known. The
+//! avatar's canonical mesh is the fitted body, never the true one; the identity's truth only
+//! grades the fit (its joints against the fitted model's first 22, which every SMPL-layout body
+//! shares).
 
+use crate::body_prior::AvatarBody;
 use crate::error::AagError;
 use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
@@ -14,7 +17,7 @@ use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_datasets::synth::scene::posed_once;
 use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::fit::{
-    FitConfig, KeypointTarget, Observation, TORSO, body25_targets, fit_body, foot_targets,
+    FitConfig, KeypointTarget, TORSO, body25_observations, body25_targets, fit_body, foot_targets,
 };
 use splatzoo_rasterizer::Camera;
 
@@ -25,7 +28,7 @@ pub struct PortraitFit {
     pub reprojection_rms_px: f64,
     /// Mean 3-D error of the 22 body joints in the portrait's pose, metres.
     pub mpjpe_m: f64,
-    /// Fitted rest height over true rest height, minus 1.
+    /// Fitted rest height (of the avatar's body model) over true rest height, minus 1.
     pub height_error: f64,
     /// The keypoints the fit saw (BODY_25; confidence 0 where the body marks nothing).
     #[serde(skip)]
@@ -44,10 +47,8 @@ pub fn portrait_camera(size: u32) -> Camera {
     )
 }
 
-fn rest_height(betas: &[f64], device: &Device) -> f64 {
-    let frame = posed_once(betas, &[0.0; 72], device);
-    let (lo, hi) = frame
-        .vertices
+fn rest_height(vertices: &[[f32; 3]]) -> f64 {
+    let (lo, hi) = vertices
         .iter()
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| {
             (a.min(v[1]), b.max(v[1]))
@@ -55,9 +56,10 @@ fn rest_height(betas: &[f64], device: &Device) -> f64 {
     f64::from(hi - lo)
 }
 
-/// Fits the body of an identity of shape `betas` seen in `pose` from a `size`² front portrait
-/// with keypoint noise `noise_px` (seeded).
+/// Fits `avatar`'s body model to an identity of shape `betas` (on the built-in body) seen in
+/// `pose` from a `size`² front portrait with keypoint noise `noise_px` (seeded).
 pub fn fit_portrait(
+    avatar: &AvatarBody,
     betas: &[f64],
     pose: &[f64; 72],
     size: u32,
@@ -80,33 +82,29 @@ pub fn fit_portrait(
         miss_rate: 0.0,
     };
     let detected = detect(&truth, &targets, &camera, None, &noise, &mut Rng(seed));
-    let mut observations = Vec::new();
-    let mut keypoints = Vec::with_capacity(25);
-    for (target, pixel) in targets.iter().zip(detected) {
-        match (target, pixel) {
-            (Some(t), Some(pixel)) => {
-                observations.push(Observation {
-                    target: *t,
-                    pixel,
-                    confidence: 0.9,
-                });
-                keypoints.push([pixel[0] as f32, pixel[1] as f32, 0.9]);
-            }
-            _ => keypoints.push([0.0; 3]),
-        }
-    }
-    let feet = foot_targets(|n| body.landmark(n));
-    let ground = feet
+    let keypoints: Vec<[f32; 3]> = targets
+        .iter()
+        .zip(detected)
+        .map(|(target, pixel)| match (target, pixel) {
+            (Some(_), Some(pixel)) => [pixel[0] as f32, pixel[1] as f32, 0.9],
+            _ => [0.0; 3],
+        })
+        .collect();
+    let ground = foot_targets(|n| body.landmark(n))
         .iter()
         .map(|&f| point(f)[1])
         .fold(f64::INFINITY, f64::min);
+    // The detector saw the identity; the fit reads the same pixels as marks of the avatar's
+    // body.
+    let observations = body25_observations(&keypoints, &body25_targets(|n| avatar.landmark(n)));
+    let feet = foot_targets(|n| avatar.landmark(n));
     let config = FitConfig {
         ground: Some(ground),
         feet,
         ..FitConfig::default()
     };
     let fit = fit_body(
-        &body.model,
+        &avatar.model,
         &observations,
         &camera,
         &TORSO,
@@ -115,7 +113,8 @@ pub fn fit_portrait(
         device,
     )
     .map_err(|e| AagError::input("portrait keypoints", e.to_string()))?;
-    let fitted = posed_once(&fit.betas, &vec_to_pose(&fit.pose), device);
+    let fitted = avatar.posed(&fit.betas, &avatar.smpl_pose(&fit.pose), device);
+    let fitted_rest = avatar.posed(&fit.betas, &[0.0; 72], device);
     let mpjpe_m = (0..22)
         .map(|j| {
             let (a, b) = (fitted.joints[j], truth.joints[j]);
@@ -127,7 +126,9 @@ pub fn fit_portrait(
         .sum::<f64>()
         / 22.0;
     Ok(PortraitFit {
-        height_error: rest_height(&fit.betas, device) / rest_height(betas, device) - 1.0,
+        height_error: rest_height(&fitted_rest.vertices)
+            / rest_height(&posed_once(betas, &[0.0; 72], device).vertices)
+            - 1.0,
         betas: fit.betas,
         reprojection_rms_px: fit.reprojection_rms_px,
         mpjpe_m,
@@ -138,10 +139,4 @@ pub fn fit_portrait(
             right_hand: Vec::new(),
         }),
     })
-}
-
-fn vec_to_pose(pose: &[f64]) -> [f64; 72] {
-    let mut out = [0.0; 72];
-    out.copy_from_slice(&pose[..72]);
-    out
 }

@@ -112,7 +112,7 @@ impl AagTrainer {
         let set = initial_gaussians(
             config.init,
             &capture.canonical,
-            &capture.bank.faces,
+            &capture.body.faces,
             config.gaussians,
             config.seed,
             device,

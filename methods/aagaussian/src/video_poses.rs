@@ -1,18 +1,20 @@
 //! Poses from a motion video (§3.4 of AAGaussian: OpenPose on every frame, then a body fit per
 //! frame): a folder of OpenPose JSON files, one per frame, fitted frame by frame by
 //! [`splatzoo_models::body::fit::fit_sequence`] (the first frame in full, each next one from
-//! the previous with the shape held) into a pose sequence that drives the avatar.
+//! the previous with the shape held) into a pose sequence that drives the avatar. The fit is
+//! of the avatar's own body model ([`AvatarBody`]: the built-in body or a user's SMPL-X); the
+//! sequence keeps the 22 body joints in the SMPL layout the animation reads.
 //!
 //! The video's camera: a pinhole of focal length `focal_px` with the principal point at the
 //! image centre, at the world origin looking down −z with +y up (the world the fitted root
 //! orientation is expressed in; the avatar is driven by the 21 body joints only, \[P\]).
 
 use crate::animate::JOINTS;
+use crate::body_prior::AvatarBody;
 use crate::error::AagError;
 use burn::tensor::Device;
 use splatzoo_datasets::openpose::{keypoint_files, read_main_person};
 use splatzoo_datasets::pose_sequence::PoseSequence;
-use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::fit::{
     BodyFit, FitConfig, Observation, PinholeCamera, TORSO, body25_observations, body25_targets,
     fit_sequence,
@@ -44,14 +46,15 @@ impl VideoCamera {
     }
 }
 
-/// One frame's BODY_25 keypoints as observations of the built-in body.
-pub fn builtin_observations(body: &[[f32; 3]]) -> Vec<Observation> {
-    body25_observations(body, &body25_targets(|n| builtin_body().landmark(n)))
+/// One frame's BODY_25 keypoints as observations of `body`.
+pub fn observations(body: &AvatarBody, keypoints: &[[f32; 3]]) -> Vec<Observation> {
+    body25_observations(keypoints, &body25_targets(|n| body.landmark(n)))
 }
 
-/// Fits every frame of `dir` and returns the driving sequence (24 joints, no translation) and
-/// each frame's fit.
+/// Fits `body` to every frame of `dir` and returns the driving sequence (24 joints, no
+/// translation) and each frame's fit.
 pub fn poses_from_keypoints(
+    body: &AvatarBody,
     dir: &Path,
     camera: VideoCamera,
     fps: f64,
@@ -64,9 +67,9 @@ pub fn poses_from_keypoints(
         let person = read_main_person(file).map_err(dataset)?.ok_or_else(|| {
             AagError::input(file.display().to_string(), "no person in this frame")
         })?;
-        frames.push(builtin_observations(&person.body));
+        frames.push(observations(body, &person.body));
     }
-    let model = &builtin_body().model;
+    let model = &body.model;
     let fits = fit_sequence(
         model,
         &frames,
@@ -86,7 +89,7 @@ pub fn poses_from_keypoints(
         fps: Some(fps),
     };
     for fit in &fits {
-        sequence.poses.extend_from_slice(&fit.pose[..3 * JOINTS]);
+        sequence.poses.extend_from_slice(&body.smpl_pose(&fit.pose));
         sequence.betas.extend_from_slice(&fit.betas);
     }
     Ok((sequence, fits))

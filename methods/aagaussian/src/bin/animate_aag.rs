@@ -94,8 +94,9 @@ fn run(args: Args) -> Result<(), TrainError> {
                 width: args.image_width,
                 height: args.image_height,
             };
-            let (sequence, fits) = poses_from_keypoints(dir, camera, animation.fps, &device)
-                .map_err(TrainError::from)?;
+            let (sequence, fits) =
+                poses_from_keypoints(&capture.body, dir, camera, animation.fps, &device)
+                    .map_err(TrainError::from)?;
             let worst = fits
                 .iter()
                 .map(|f| f.reprojection_rms_px)

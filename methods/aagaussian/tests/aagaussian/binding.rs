@@ -92,7 +92,7 @@ fn capture() -> PortraitCapture {
 #[test]
 fn binding_matches_brute_force_and_is_rigidly_equivariant() {
     let capture = capture();
-    let (vertices, faces) = (&capture.canonical, &capture.bank.faces);
+    let (vertices, faces) = (&capture.canonical, &capture.body.faces);
     let mut rng = Rng(crate_seed() ^ 7);
     let means: Vec<[f32; 3]> = (0..300)
         .map(|_| {
@@ -187,7 +187,7 @@ fn a_reference_avatar_keeps_its_identity_when_animated() {
     let device = Backend::Flex.device();
     let label = capture.config.prompt;
     let mesh = &capture.bank.identities[label];
-    let (vertices, faces) = (&capture.canonical, &capture.bank.faces);
+    let (vertices, faces) = (&capture.canonical, &capture.body.faces);
     let flat_v: Vec<f32> = vertices.iter().flatten().copied().collect();
     let flat_f: Vec<u32> = faces.iter().flatten().copied().collect();
     let anchors = MeshAnchors::sample_surface(&flat_v, &flat_f, 30_000, crate_seed());

@@ -4,7 +4,7 @@
 //! reference avatar, the ONNX guidance path against its Burn twin,
 //! the Monte-Carlo moments of SDS under the mixture, and the trainer's schedule and resume,
 //! the portrait's body fit, poses fitted to a synthetic video's keypoints, and
-//! three steps on NdArray and wgpu against Flex, and the extremes.
+//! three steps on NdArray and wgpu against Flex, the extremes, and a user's body model.
 
 mod backends;
 mod binding;
@@ -14,4 +14,5 @@ mod guidance;
 mod onnx;
 mod sds;
 mod trainer;
+mod user_body;
 mod video;

@@ -3,6 +3,7 @@
 //! root-relative joints are close to the truth's.
 
 use splatzoo_aagaussian::animate::builtin_motion;
+use splatzoo_aagaussian::body_prior::AvatarBody;
 use splatzoo_aagaussian::video_poses::{VideoCamera, poses_from_keypoints};
 use splatzoo_datasets::openpose::{PersonKeypoints, write_keypoints};
 use splatzoo_datasets::synth::rng::Rng;
@@ -76,7 +77,9 @@ fn poses_fitted_from_a_video_follow_the_truth() {
         .expect("written");
         truth.push(root_relative(&frame.joints));
     }
-    let (sequence, fits) = poses_from_keypoints(dir.path(), camera, 8.0, &device).expect("fitted");
+    let (sequence, fits) =
+        poses_from_keypoints(&AvatarBody::builtin(), dir.path(), camera, 8.0, &device)
+            .expect("fitted");
     assert_eq!(sequence.frames(), motion.frames());
     assert_eq!(sequence.joints, 24);
     let mut errors = Vec::new();
