@@ -13,6 +13,7 @@ use crate::error::AagError;
 use burn::tensor::Device;
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_datasets::posing::{PosedFrame, pose_frames_with_joints};
+use splatzoo_models::body::fit::PersonTargets;
 use splatzoo_models::body::{BodyModel, SurfaceMarks, builtin_body, load_body_model};
 use std::path::Path;
 
@@ -93,6 +94,11 @@ impl AvatarBody {
 
     pub fn landmark(&self, name: &str) -> Option<u32> {
         self.marks.landmark(name)
+    }
+
+    /// What an OpenPose person (body, face, hands) marks on this body.
+    pub fn targets(&self) -> PersonTargets {
+        PersonTargets::new(&self.model.joint_names, |n| self.landmark(n))
     }
 
     /// A full pose vector of this model from a 72-D SMPL-layout pose (module doc).

@@ -1,5 +1,6 @@
 //! Poses from a motion video (§3.4 of AAGaussian: OpenPose on every frame, then a body fit per
-//! frame): a folder of OpenPose JSON files, one per frame, fitted frame by frame by
+//! frame): a folder of OpenPose JSON files, one per frame (body, and face and hands where
+//! present), fitted frame by frame by
 //! [`splatzoo_models::body::fit::fit_sequence`] (the first frame in full, each next one from
 //! the previous with the shape held) into a pose sequence that drives the avatar. The fit is
 //! of the avatar's own body model ([`AvatarBody`]: the built-in body or a user's SMPL-X); the
@@ -13,11 +14,10 @@ use crate::animate::JOINTS;
 use crate::body_prior::AvatarBody;
 use crate::error::AagError;
 use burn::tensor::Device;
-use splatzoo_datasets::openpose::{keypoint_files, read_main_person};
+use splatzoo_datasets::openpose::{PersonKeypoints, keypoint_files, read_main_person};
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_models::body::fit::{
-    BodyFit, FitConfig, Observation, PinholeCamera, TORSO, body25_observations, body25_targets,
-    fit_sequence,
+    BodyFit, FitConfig, Observation, PinholeCamera, TORSO, fit_sequence,
 };
 use std::path::Path;
 
@@ -46,9 +46,15 @@ impl VideoCamera {
     }
 }
 
-/// One frame's BODY_25 keypoints as observations of `body`.
-pub fn observations(body: &AvatarBody, keypoints: &[[f32; 3]]) -> Vec<Observation> {
-    body25_observations(keypoints, &body25_targets(|n| body.landmark(n)))
+/// One frame's keypoints (BODY_25, and the face and hands where the file has them) as
+/// observations of `body`.
+pub fn observations(body: &AvatarBody, person: &PersonKeypoints) -> Vec<Observation> {
+    body.targets().observations(
+        &person.body,
+        &person.face,
+        &person.left_hand,
+        &person.right_hand,
+    )
 }
 
 /// Fits `body` to every frame of `dir` and returns the driving sequence (24 joints, no
@@ -67,7 +73,7 @@ pub fn poses_from_keypoints(
         let person = read_main_person(file).map_err(dataset)?.ok_or_else(|| {
             AagError::input(file.display().to_string(), "no person in this frame")
         })?;
-        frames.push(observations(body, &person.body));
+        frames.push(observations(body, &person));
     }
     let model = &body.model;
     let fits = fit_sequence(

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::fit::{
-    BodyFit, FitConfig, PinholeCamera, TORSO, body25_observations, body25_targets, fit_body,
+    BodyFit, FitConfig, PinholeCamera, TORSO, body25_targets, fit_body, keypoint_observations,
 };
 use splatzoo_rasterizer::Camera;
 use splatzoo_train::avatar::{mpjpe_mm, track_joints};
@@ -155,7 +155,7 @@ pub fn refine_on_keypoints(
     let (mut fitted, mut kept) = (0, 0);
     let (mut before, mut after) = (0.0, 0.0);
     for (t, keypoints) in capture.acting_keypoints.iter().enumerate() {
-        let observations = body25_observations(keypoints, &targets);
+        let observations = keypoint_observations(keypoints, &targets);
         let camera = camera_frame(&capture.acting[t].camera);
         let start = BodyFit {
             betas: prior.frame_betas(t).to_vec(),

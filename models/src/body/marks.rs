@@ -5,7 +5,7 @@
 //! - The built-in body carries its own hand-placed marks ([`super::BuiltinBody`]).
 //! - SMPL and SMPL-H (6890 vertices) and SMPL-X (10475 vertices) get the OpenPose-compatible
 //!   vertex ids the `smplx` package publishes (`smplx/vertex_ids.py`: nose, eyes, ears, big
-//!   toes, heels, middle fingertips), checked against the model's topology.
+//!   and small toes, heels, the five fingertips), checked against the model's topology.
 //! - Any other mesh (a re-topologised scan, a custom rig) takes a marks file ([`SurfaceMarks::
 //!   from_file`]): JSON `{"landmarks": {"nose_tip": 332, …}, "face_vertices": [ … ]}`, the
 //!   face list optional (a FLAME or hand-painted region overrides the rule below).
@@ -24,8 +24,9 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// Landmark names every table and marks file uses (the built-in body's).
-pub const LANDMARK_NAMES: [&str; 14] = [
+/// Landmark names every table and marks file uses: the built-in body's fourteen, then the other
+/// fingertips and the small toes the SMPL-family tables add (OpenPose's hand and foot points).
+pub const LANDMARK_NAMES: [&str; 24] = [
     "nose_tip",
     "left_eye",
     "right_eye",
@@ -40,10 +41,20 @@ pub const LANDMARK_NAMES: [&str; 14] = [
     "right_toe",
     "left_heel",
     "right_heel",
+    "left_thumb_tip",
+    "left_index_tip",
+    "left_ring_tip",
+    "left_pinky_tip",
+    "right_thumb_tip",
+    "right_index_tip",
+    "right_ring_tip",
+    "right_pinky_tip",
+    "left_small_toe",
+    "right_small_toe",
 ];
 
 /// SMPL / SMPL-H vertex ids (6890-vertex topology), from `smplx/vertex_ids.py` (`smplh`).
-const SMPL_LANDMARKS: [(&str, u32); 11] = [
+const SMPL_LANDMARKS: [(&str, u32); 21] = [
     ("nose_tip", 332),
     ("left_eye", 2800),
     ("right_eye", 6260),
@@ -55,10 +66,20 @@ const SMPL_LANDMARKS: [(&str, u32); 11] = [
     ("right_toe", 6617),
     ("left_heel", 3387),
     ("right_heel", 6787),
+    ("left_thumb_tip", 2746),
+    ("left_index_tip", 2319),
+    ("left_ring_tip", 2556),
+    ("left_pinky_tip", 2673),
+    ("right_thumb_tip", 6191),
+    ("right_index_tip", 5782),
+    ("right_ring_tip", 6016),
+    ("right_pinky_tip", 6133),
+    ("left_small_toe", 3226),
+    ("right_small_toe", 6624),
 ];
 
 /// SMPL-X vertex ids (10475-vertex topology), from `smplx/vertex_ids.py` (`smplx`).
-const SMPLX_LANDMARKS: [(&str, u32); 11] = [
+const SMPLX_LANDMARKS: [(&str, u32); 21] = [
     ("nose_tip", 9120),
     ("left_eye", 9448),
     ("right_eye", 9929),
@@ -70,6 +91,16 @@ const SMPLX_LANDMARKS: [(&str, u32); 11] = [
     ("right_toe", 8463),
     ("left_heel", 8846),
     ("right_heel", 8635),
+    ("left_thumb_tip", 5361),
+    ("left_index_tip", 4933),
+    ("left_ring_tip", 5169),
+    ("left_pinky_tip", 5286),
+    ("right_thumb_tip", 8079),
+    ("right_index_tip", 7669),
+    ("right_ring_tip", 7905),
+    ("right_pinky_tip", 8022),
+    ("left_small_toe", 5780),
+    ("right_small_toe", 8474),
 ];
 
 const SMPL_VERTICES: usize = 6890;

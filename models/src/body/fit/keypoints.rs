@@ -1,5 +1,11 @@
-//! What 2-D keypoints mark on a body: joints or surface vertices, OpenPose's BODY_25 layout
-//! on SMPL-layout bodies, and SMPLify's torso subset.
+//! What 2-D keypoints mark on a body: joints or surface vertices, OpenPose's layouts (BODY_25,
+//! the 21-point hands, the 70-point face) on SMPL-layout bodies, and SMPLify's torso subset.
+//!
+//! Body points are joints or landmarks; a hand's wrist and finger joints are joints found by
+//! their SMPL-H / SMPL-X names (`left_index1`…; a 24-joint body has none, so only its wrist and
+//! the fingertips its landmarks mark count) and its fingertips landmarks; the face's nose tip,
+//! chin, mouth and pupils are landmarks. The face's other 63 points (contour, brows, lids, lips)
+//! lie on a face model's surface embedding that no table here carries, and stay unused.
 
 /// What a keypoint marks on the body.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -18,8 +24,9 @@ pub struct Observation {
 
 /// What each BODY_25 keypoint marks on an SMPL-layout body (joints 0–23; SMPL-X shares its
 /// first 22): body joints by index, and the face and feet points by the surface landmarks
-/// `landmark` names (`nose_tip`, `left_eye`, `right_ear`, `left_toe`, `left_heel`, …; `None`
-/// leaves a point unused, as the small toes always are).
+/// `landmark` names (`nose_tip`, `left_eye`, `right_ear`, `left_toe`, `left_small_toe`,
+/// `left_heel`, …; a landmark the body lacks, as the built-in body's small toes, leaves its
+/// point unused).
 pub fn body25_targets(landmark: impl Fn(&str) -> Option<u32>) -> [Option<KeypointTarget>; 25] {
     let joint = |j: usize| Some(KeypointTarget::Joint(j));
     let vertex = |name: &str| landmark(name).map(|v| KeypointTarget::Vertex(v as usize));
@@ -44,20 +51,129 @@ pub fn body25_targets(landmark: impl Fn(&str) -> Option<u32>) -> [Option<Keypoin
         vertex("right_ear"),
         vertex("left_ear"),
         vertex("left_toe"),
-        None,
+        vertex("left_small_toe"),
         vertex("left_heel"),
         vertex("right_toe"),
-        None,
+        vertex("right_small_toe"),
         vertex("right_heel"),
     ]
 }
 
-/// One frame's BODY_25 keypoints (`[x, y, confidence]` in pixels, OpenPose's order; a missed
-/// point is `[0, 0, 0]`) as observations of a body whose points `targets` names
-/// ([`body25_targets`]): the points without a target are dropped.
-pub fn body25_observations(
+/// A hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Hand {
+    Left,
+    Right,
+}
+
+impl Hand {
+    /// The joint-name and landmark prefix (`left`, `right`).
+    pub fn side(self) -> &'static str {
+        match self {
+            Hand::Left => "left",
+            Hand::Right => "right",
+        }
+    }
+}
+
+/// OpenPose's fingers in its hand layout's order, four points each after the wrist (point 0):
+/// three joints from the base (the thumb's carpometacarpal joint first) and the tip.
+const HAND_FINGERS: [&str; 5] = ["thumb", "index", "middle", "ring", "pinky"];
+
+/// What each point of OpenPose's 21-point `hand` marks on a body with joints `joint_names`:
+/// the wrist joint, the finger joints `{side}_{finger}{1,2,3}` where the model has them, and
+/// the fingertips by the landmarks `{side}_{finger}_tip` (the middle finger's is
+/// `{side}_fingertip`, the one every table has).
+pub fn hand21_targets(
+    hand: Hand,
+    joint_names: &[String],
+    landmark: impl Fn(&str) -> Option<u32>,
+) -> [Option<KeypointTarget>; 21] {
+    let side = hand.side();
+    let joint = |name: String| {
+        joint_names
+            .iter()
+            .position(|n| *n == name)
+            .map(KeypointTarget::Joint)
+    };
+    let mut targets = [None; 21];
+    targets[0] = joint(format!("{side}_wrist"));
+    for (f, finger) in HAND_FINGERS.iter().enumerate() {
+        for k in 0..3 {
+            targets[1 + 4 * f + k] = joint(format!("{side}_{finger}{}", k + 1));
+        }
+        let tip = match *finger {
+            "middle" => format!("{side}_fingertip"),
+            _ => format!("{side}_{finger}_tip"),
+        };
+        targets[4 + 4 * f] = landmark(&tip).map(|v| KeypointTarget::Vertex(v as usize));
+    }
+    targets
+}
+
+/// What each point of OpenPose's 70-point face (the 68-point iBUG layout and the two pupils)
+/// marks: the chin (8), the nose tip (30), the mouth (62, the upper inner lip's middle, where
+/// a closed mouth's slit is) and the pupils (68 right, 69 left) by landmarks; the rest nothing.
+pub fn face70_targets(landmark: impl Fn(&str) -> Option<u32>) -> [Option<KeypointTarget>; 70] {
+    let mut targets = [None; 70];
+    for (point, name) in [
+        (8, "chin"),
+        (30, "nose_tip"),
+        (62, "mouth"),
+        (68, "right_eye"),
+        (69, "left_eye"),
+    ] {
+        targets[point] = landmark(name).map(|v| KeypointTarget::Vertex(v as usize));
+    }
+    targets
+}
+
+/// What a whole OpenPose person (body, face, both hands) marks on one body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PersonTargets {
+    pub body: [Option<KeypointTarget>; 25],
+    pub face: [Option<KeypointTarget>; 70],
+    pub left_hand: [Option<KeypointTarget>; 21],
+    pub right_hand: [Option<KeypointTarget>; 21],
+}
+
+impl PersonTargets {
+    /// The targets of a body with joints `joint_names` and surface landmarks `landmark`.
+    pub fn new(joint_names: &[String], landmark: impl Fn(&str) -> Option<u32>) -> Self {
+        Self {
+            body: body25_targets(&landmark),
+            face: face70_targets(&landmark),
+            left_hand: hand21_targets(Hand::Left, joint_names, &landmark),
+            right_hand: hand21_targets(Hand::Right, joint_names, &landmark),
+        }
+    }
+
+    /// One person's keypoints as observations: `body` (BODY_25), `face` (70) and the hands
+    /// (21 each), each part empty where the detector gave none.
+    pub fn observations(
+        &self,
+        body: &[[f32; 3]],
+        face: &[[f32; 3]],
+        left_hand: &[[f32; 3]],
+        right_hand: &[[f32; 3]],
+    ) -> Vec<Observation> {
+        [
+            keypoint_observations(body, &self.body),
+            keypoint_observations(face, &self.face),
+            keypoint_observations(left_hand, &self.left_hand),
+            keypoint_observations(right_hand, &self.right_hand),
+        ]
+        .concat()
+    }
+}
+
+/// One frame's keypoints of one layout (`[x, y, confidence]` in pixels, in the layout's order; a
+/// missed point is `[0, 0, 0]`) as observations of a body whose points `targets` names
+/// ([`body25_targets`], [`hand21_targets`], [`face70_targets`]): the points without a target
+/// are dropped, and so are all of them where the detector gave none (`keypoints` empty).
+pub fn keypoint_observations(
     keypoints: &[[f32; 3]],
-    targets: &[Option<KeypointTarget>; 25],
+    targets: &[Option<KeypointTarget>],
 ) -> Vec<Observation> {
     targets
         .iter()

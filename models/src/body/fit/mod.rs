@@ -15,6 +15,9 @@
 //! prior's weight annealed down. Adam runs on the host over the few parameters (85 for SMPL);
 //! the body and its gradient are Burn's.
 //!
+//! The keypoints may be any of OpenPose's parts ([`PersonTargets`]: BODY_25, the hands, the
+//! face), each point a joint or a surface landmark of the model being fitted.
+//!
 //! A video is fitted frame by frame ([`fit_sequence`]): the first frame in full, the others
 //! from the previous frame's result with the shape held.
 
@@ -28,7 +31,8 @@ mod keypoints;
 
 pub use camera::PinholeCamera;
 pub use keypoints::{
-    KeypointTarget, Observation, TORSO, body25_observations, body25_targets, foot_targets,
+    Hand, KeypointTarget, Observation, PersonTargets, TORSO, body25_targets, face70_targets,
+    foot_targets, hand21_targets, keypoint_observations,
 };
 
 /// The fit's knobs.
