@@ -25,8 +25,9 @@
 //! output: a mismatch is an error naming both lists. The graph runs on the host with the
 //! stacked rows of one SDS call (`[N, C, H, W]` per branch, `[N]` timesteps, `[N, L, D]`
 //! text); tract optimises it once per distinct set of input shapes and keeps the plan.
-//! A latent-space UNet (SD's 4 channels) needs the VAE encoder, which is not built yet; until
-//! then the branches are the renders themselves (pixel space).
+//! A pixel-space graph takes the renders themselves; a latent-space UNet (SD's 4 channels)
+//! takes them through the run's `[vae]` encoder (`splatzoo_models::networks::vae`), scaled by
+//! `latent_scale`.
 
 use crate::error::AagError;
 use crate::prompts::PromptEmbeddings;

@@ -291,3 +291,53 @@ fn the_trainer_steps_with_a_latent_model_behind_a_vae() {
         .to_string();
     assert!(message.contains("downsampling"), "{message}");
 }
+
+/// Prompt embeddings a text encoder got wrong are named by file, key and shape: a row of
+/// another shape than the others, a row that is not `[L, D]`, a non-finite value.
+#[test]
+fn bad_prompt_embeddings_are_named() {
+    let mut rng = Rng(crate_seed() ^ 3);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("prompts.safetensors");
+    let good = prompts(&mut rng);
+    good.write(&path).expect("written");
+    assert_eq!(PromptEmbeddings::read(&path).expect("read back"), good);
+    let broken = |key: &str, shape: Vec<usize>, values: Vec<f32>| -> String {
+        let mut file = splatzoo_train::checkpoint::Checkpoint::read(&path).expect("read");
+        file.tensors.insert(key.to_owned(), (shape, values));
+        let bad = dir.path().join("bad.safetensors");
+        file.write(&bad).expect("written");
+        PromptEmbeddings::read(&bad)
+            .err()
+            .expect("refused")
+            .to_string()
+    };
+    let message = broken(
+        "null",
+        vec![TOKENS + 1, CHANNELS],
+        vec![0.0; (TOKENS + 1) * CHANNELS],
+    );
+    assert!(
+        message.contains("bad.safetensors")
+            && message.contains("`null`")
+            && message.contains(&format!("[{}, {CHANNELS}]", TOKENS + 1))
+            && message.contains(&format!("[{TOKENS}, {CHANNELS}]")),
+        "{message}"
+    );
+    let message = broken(
+        "cond.side",
+        vec![TOKENS * CHANNELS],
+        vec![0.0; TOKENS * CHANNELS],
+    );
+    assert!(
+        message.contains("`cond.side`") && message.contains("expected [L, D]"),
+        "{message}"
+    );
+    let mut values = vec![0.5; TOKENS * CHANNELS];
+    values[7] = f32::NAN;
+    let message = broken("negative.back", vec![TOKENS, CHANNELS], values);
+    assert!(
+        message.contains("`negative.back`") && message.contains("non-finite value at flat index 7"),
+        "{message}"
+    );
+}

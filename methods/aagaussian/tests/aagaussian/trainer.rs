@@ -190,3 +190,37 @@ fn the_depth_branch_follows_the_guidance_model() {
         }
     }
 }
+
+/// The timestep range anneals at exactly its step: every t of steps 0–2 is drawn from
+/// [20, 980] and at least one lies above the annealed maximum, every t from step 3 on is at
+/// most 100.
+#[test]
+fn timesteps_anneal_at_their_exact_step() {
+    let device = Backend::Flex.device();
+    let mut config = tiny(crate_seed() % 1000 + 3);
+    config.sds.timesteps.anneal_step = 3;
+    config.sds.timesteps.t_max_annealed = 100;
+    config.batch = 4;
+    let mut method = Aag::new(config, &device).expect("assembles");
+    let mut before = Vec::new();
+    for step in 0..6 {
+        let record = method.trainer.train_step().expect("a step");
+        assert_eq!(record.t.len(), 4);
+        assert!(
+            record.t.iter().all(|&t| (20..=980).contains(&t)),
+            "{:?}",
+            record.t
+        );
+        if step < 3 {
+            before.extend(record.t);
+        } else {
+            assert!(
+                record.t.iter().all(|&t| t <= 100),
+                "step {step}: {:?}",
+                record.t
+            );
+        }
+    }
+    // 12 uniform draws on [20, 980] all at most 100: probability (81/961)^12 < 1e-12.
+    assert!(before.iter().any(|&t| t > 100), "{before:?}");
+}
