@@ -308,8 +308,7 @@ fn bad_prompt_embeddings_are_named() {
         let bad = dir.path().join("bad.safetensors");
         file.write(&bad).expect("written");
         PromptEmbeddings::read(&bad)
-            .err()
-            .expect("refused")
+            .expect_err("refused")
             .to_string()
     };
     let message = broken(
