@@ -1,11 +1,14 @@
 //! What a finished run writes into its directory: the canonical avatar as an INRIA
 //! `point_cloud.ply` (normalised units), a turntable GIF (avatar | prompted identity), the
-//! face view beside the face crop, the final scores for `metrics.json`, and the avatar
+//! face view beside the face crop, the final scores for `metrics.json` (with the guidance's
+//! fixed points, [`crate::fixed_points`]), and the avatar
 //! animated by the built-in motion (`animation/`).
 
 use crate::animate::{FrameOutput, animate, builtin_motion};
 use crate::cameras::orbit_camera;
 use crate::error::AagError;
+use crate::fixed_points;
+use crate::sds::Guidance;
 use crate::trainer::{AagTrainer, planar_to_tensor, render_views};
 use splatzoo_train::harness::Say;
 use splatzoo_train::images::{side_by_side, srgb_image, write_gif, write_png};
@@ -71,6 +74,29 @@ pub fn write_outputs(
         serde_json::to_value(&scores).expect("plain data"),
     );
     summary.insert("metres_per_unit".into(), capture.metres_per_unit.into());
+    let sds = &trainer.config.sds;
+    let mut forms = vec![Guidance::Plain];
+    if sds.guidance != Guidance::Plain {
+        forms.push(sds.guidance);
+    }
+    let fixed = fixed_points::check(&forms, sds.scale, sds.anpg_switch, trainer.config.seed)?;
+    for c in &fixed {
+        say.say(&format!(
+            "guidance fixed point ({:?}, ω {}, point masses): {:.3} from the prompt's image on \
+             average (closed form {}; an L2 fit: 0)",
+            c.guidance,
+            c.scale,
+            c.beyond_target,
+            match (c.closed_form_beyond_target, c.closed_form_error) {
+                (Some(d), Some(e)) => format!("{d:.3}, reached within {e:.1e}"),
+                _ => "none".into(),
+            }
+        ));
+    }
+    summary.insert(
+        "guidance_fixed_points".into(),
+        serde_json::to_value(&fixed).expect("plain data"),
+    );
     let animation = &trainer.config.animation;
     if animation.frames > 0 {
         let dir = run.join("animation");

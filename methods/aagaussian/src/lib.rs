@@ -22,6 +22,7 @@
 //! | U6 | line-of-sight distance to the body | [`face::LineOfSight::loss`] |
 //! | U7 | fixed face camera | [`data::PortraitCapture::build`] |
 //! | U9 | animation binding: nearest face, barycentrics, normal offset; re-posing | [`binding::bind`], [`binding::SurfaceBinding::pose`], [`animate::animate`] |
+//! | T3 | guidance fixed points under point masses (every run's `metrics.json`) | [`fixed_points::check`] |
 //! | S1/S2 | point-mass and mixture oracles | [`oracle::MixtureOracle`], [`oracle::posterior`] |
 //!
 //! The crate's `README.md` lists what is built so far and every choice the paper leaves open.
@@ -36,6 +37,7 @@ mod error;
 pub mod eval;
 mod export;
 pub mod face;
+pub mod fixed_points;
 pub mod init;
 pub mod loss;
 mod method;

@@ -5,6 +5,7 @@
 
 use crate::sds::crate_seed;
 use burn::tensor::{Tensor, TensorData};
+use splatzoo_aagaussian::fixed_points;
 use splatzoo_aagaussian::oracle::{Components, FixedTargets, MixtureOracle};
 use splatzoo_aagaussian::schedule::NoiseSchedule;
 use splatzoo_aagaussian::score::{LatentBatch, Prediction, ViewClass};
@@ -16,54 +17,8 @@ use splatzoo_train::host_f32;
 
 const PIXELS: usize = 3 * 4 * 4;
 
-/// Pixels `x` moved by preconditioned SDS steps until the gradient vanishes.
 fn fixed_point(guidance: Guidance, omega: f64, y_c: &[f32], y_u: &[f32], seed: u64) -> Vec<f32> {
-    let schedule = NoiseSchedule::sd2();
-    let model = MixtureOracle {
-        schedule: schedule.clone(),
-        prediction: Prediction::Epsilon,
-        data_noise: 0.0,
-        // Cond is identity 0, the unconditional row identity 1 (point masses).
-        components: Components {
-            cond: vec![0],
-            negative: vec![1],
-            null: vec![1],
-        },
-        branches: 1,
-        targets: Box::new(FixedTargets {
-            images: vec![vec![y_c.to_vec()], vec![y_u.to_vec()]],
-        }),
-    };
-    let config = SdsConfig {
-        guidance,
-        scale: omega,
-        rescale: 0.0,
-        weighting: Weighting::Sds,
-        clip_norm: 0.0,
-        clamp_start: 0.0,
-        ..SdsConfig::default()
-    };
-    let view = SdsView {
-        camera: Camera::look_at([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], 50.0, 4, 4),
-        view: ViewClass::Front,
-    };
-    let mut rng = Rng(seed);
-    let mut z = LatentBatch {
-        shape: [1, 3, 4, 4],
-        data: vec![0.0; PIXELS],
-    };
-    for step in 0..60 {
-        let out = config
-            .guidance(&model, std::slice::from_ref(&z), &[view], step, &mut rng)
-            .expect("guidance");
-        let t = out.t[0];
-        // g = w α (x − x*) / σ here, so this step halves the distance to x*.
-        let precondition = schedule.sigma(t) / ((1.0 - schedule.alpha_bar(t)) * schedule.alpha(t));
-        for (x, g) in z.data.iter_mut().zip(&out.grads[0].data) {
-            *x -= (0.5 * precondition * f64::from(*g)) as f32;
-        }
-    }
-    z.data
+    fixed_points::fixed_point(guidance, omega, 200, y_c, y_u, seed).expect("guidance")
 }
 
 #[test]
@@ -73,6 +28,7 @@ fn guidance_forms_have_their_closed_form_fixed_points() {
     let y_c: Vec<f32> = (0..PIXELS).map(|_| rng.range(-0.5, 0.5) as f32).collect();
     let y_u: Vec<f32> = (0..PIXELS).map(|_| rng.range(-0.5, 0.5) as f32).collect();
     let omega = 3.0;
+    // The closed forms, written out here (the library's `closed_form` is what the run reports).
     type Expected = Box<dyn Fn(f32, f32) -> f32>;
     let cases: [(Guidance, Expected); 3] = [
         (Guidance::Plain, Box::new(|c, _| c)),
@@ -89,6 +45,10 @@ fn guidance_forms_have_their_closed_form_fixed_points() {
         let x = fixed_point(guidance, omega, &y_c, &y_u, seed ^ 11);
         for j in 0..PIXELS {
             let want = expected(y_c[j], y_u[j]);
+            assert_eq!(
+                fixed_points::closed_form(guidance, omega, y_c[j], y_u[j]),
+                Some(want)
+            );
             assert!(
                 (x[j] - want).abs() < 1e-3,
                 "{guidance:?} pixel {j}: {} vs {want}",
@@ -96,6 +56,19 @@ fn guidance_forms_have_their_closed_form_fixed_points() {
             );
         }
     }
+    // The run's report: CFG's landing point matches its closed form and lies beyond y_c.
+    let report = fixed_points::check(&[Guidance::Plain, Guidance::Cfg], omega, 200, seed ^ 17)
+        .expect("checked");
+    assert!(
+        report[0].closed_form_error.expect("closed form") < 1e-3,
+        "{report:?}"
+    );
+    assert!(report[0].beyond_target < 1e-3, "{report:?}");
+    assert!(
+        report[1].closed_form_error.expect("closed form") < 1e-3,
+        "{report:?}"
+    );
+    assert!(report[1].beyond_target > 0.1, "{report:?}");
     // Classic CFG lands beyond the target, where an L2 fit would stop at y_c.
     let cfg = fixed_point(Guidance::Cfg, omega, &y_c, &y_u, seed ^ 13);
     let off: f32 = cfg.iter().zip(&y_c).map(|(x, c)| (x - c).abs()).sum();
