@@ -242,6 +242,8 @@ pub fn subdivide(model: &BodyModel) -> (BodyModel, Vec<[u32; 2]>) {
             .as_ref()
             .map(|e| extend(e, per(e.len()))),
         joint_names: model.joint_names.clone(),
+        // Subdivision renumbers the faces the landmarks sit on.
+        face_landmarks: None,
     };
     (fine, parents)
 }

@@ -41,10 +41,10 @@ pub fn detect(
     rng: &mut Rng,
 ) -> Vec<Option<[f64; 2]>> {
     let point = |t: KeypointTarget| -> [f64; 3] {
-        match t {
-            KeypointTarget::Joint(j) => frame.joints[j].map(f64::from),
-            KeypointTarget::Vertex(v) => frame.vertices[v].map(f64::from),
-        }
+        t.locate(
+            |j| frame.joints[j].map(f64::from),
+            |v| frame.vertices[v].map(f64::from),
+        )
     };
     let inside = |p: [f64; 2]| {
         image.is_none_or(|[w, h]| {

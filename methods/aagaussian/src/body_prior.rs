@@ -98,7 +98,7 @@ impl AvatarBody {
 
     /// What an OpenPose person (body, face, hands) marks on this body.
     pub fn targets(&self) -> PersonTargets {
-        PersonTargets::new(&self.model.joint_names, |n| self.landmark(n))
+        PersonTargets::new(&self.model, |n| self.landmark(n))
     }
 
     /// A full pose vector of this model from a 72-D SMPL-layout pose (module doc).

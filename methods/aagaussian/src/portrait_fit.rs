@@ -71,10 +71,10 @@ pub fn fit_portrait(
     let truth = posed_once(betas, pose, device);
     let camera = pinhole(&portrait_camera(size));
     let point = |t: KeypointTarget| -> [f64; 3] {
-        match t {
-            KeypointTarget::Joint(j) => truth.joints[j].map(f64::from),
-            KeypointTarget::Vertex(v) => truth.vertices[v].map(f64::from),
-        }
+        t.locate(
+            |j| truth.joints[j].map(f64::from),
+            |v| truth.vertices[v].map(f64::from),
+        )
     };
     let noise = DetectorNoise {
         pixel_sigma: noise_px,
@@ -82,7 +82,7 @@ pub fn fit_portrait(
     };
     // BODY_25 only, as the default run's figures were measured with (the fit reads face and
     // hand points where a detector gives them: `video_poses`).
-    let seen = PersonTargets::new(&body.model.joint_names, |n| body.landmark(n));
+    let seen = PersonTargets::new(&body.model, |n| body.landmark(n));
     let detected = detect(&truth, &seen.body, &camera, None, &noise, &mut Rng(seed));
     let keypoints = PersonKeypoints {
         body: seen

@@ -14,7 +14,7 @@ pub mod skeleton;
 pub use builtin::{BuiltinBody, builtin_body};
 pub use lbs::{BodyTensors, PoseInput, Posed};
 pub use marks::SurfaceMarks;
-pub use model::{BodyKind, BodyModel, BodyModelError};
+pub use model::{BodyKind, BodyModel, BodyModelError, FaceLandmark};
 pub use npz::{load_npz, save_npz};
 pub use pkl::load_pkl;
 

@@ -34,6 +34,16 @@ pub struct BodyModel {
     /// `[V, 3, E]` expression directions, if the model has them.
     pub expression_dirs: Option<Vec<f32>>,
     pub joint_names: Vec<String>,
+    /// SMPL-X's static face landmarks (`lmk_faces_idx`, `lmk_bary_coords`): the 68-point face
+    /// layout's points 17–67 (brows, nose, eyes, mouth) in order, where the model has them.
+    pub face_landmarks: Option<Vec<FaceLandmark>>,
+}
+
+/// A point on the mesh: a triangle (index into the faces) and barycentric weights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaceLandmark {
+    pub face: u32,
+    pub weights: [f32; 3],
 }
 
 /// Why a body model is unusable; names the field and the expected shape.
@@ -166,6 +176,23 @@ impl BodyModel {
                 "joint names",
                 format!("expected {j} names, got {}", self.joint_names.len()),
             ));
+        }
+        if let Some(landmarks) = &self.face_landmarks {
+            let faces = self.face_count();
+            if let Some((i, bad)) = landmarks
+                .iter()
+                .enumerate()
+                .find(|(_, l)| l.face as usize >= faces || l.weights.iter().any(|w| !w.is_finite()))
+            {
+                return Err(field(
+                    "lmk_faces_idx",
+                    format!(
+                        "landmark {i}: face {} of {faces}, weights {:?} (a face of the mesh and \
+                         finite barycentrics expected)",
+                        bad.face, bad.weights
+                    ),
+                ));
+            }
         }
         let arrays: [(&str, &[f32]); 4] = [
             ("v_template", &self.template),

@@ -1,11 +1,12 @@
 //! SMPL, SMPL-H and SMPL-X from the `.npz` files their authors release (or `np.savez` of the
 //! `.pkl` arrays). Keys read: `v_template [V, 3]`, `f [F, 3]`, `J_regressor [J, V]` (dense),
 //! `kintree_table [2, J]` (row 0: parents, root's parent −1 or 2³²−1), `weights [V, J]`,
-//! `shapedirs [V, 3, S]`, optional `posedirs [V, 3, 9 (J − 1)]`. The family follows from J:
+//! `shapedirs [V, 3, S]`, optional `posedirs [V, 3, 9 (J − 1)]` and SMPL-X's face landmarks
+//! `lmk_faces_idx [L]` with `lmk_bary_coords [L, 3]`. The family follows from J:
 //! 24 SMPL, 52 SMPL-H, 55 SMPL-X. SMPL-X keeps its expression directions in `shapedirs` after
 //! the shape ones: columns 300.. when it has at least 400, else 10.. (as the `smplx` package).
 
-use super::model::{BodyKind, BodyModel, BodyModelError};
+use super::model::{BodyKind, BodyModel, BodyModelError, FaceLandmark};
 use super::skeleton::SMPL_JOINT_NAMES;
 use npyz::npz::NpzArchive;
 use npyz::{DType, NpyFile, Order};
@@ -221,6 +222,59 @@ pub fn load_npz(path: &Path) -> Result<BodyModel, BodyModelError> {
     assemble(&file, &mut fetch)
 }
 
+/// SMPL-X's static face landmarks, where the file has `lmk_faces_idx` `[L]` and
+/// `lmk_bary_coords` `[L, 3]` (both or neither).
+fn face_landmarks(
+    fetch: &mut Fetch,
+    file: &str,
+) -> Result<Option<Vec<FaceLandmark>>, BodyModelError> {
+    let (faces, bary) = match (fetch("lmk_faces_idx")?, fetch("lmk_bary_coords")?) {
+        (None, None) => return Ok(None),
+        (Some(faces), Some(bary)) => (faces, bary),
+        (Some(_), None) => {
+            return Err(field_err(
+                file,
+                "lmk_bary_coords",
+                "missing beside `lmk_faces_idx`; expected [L, 3]",
+            ));
+        }
+        (None, Some(_)) => {
+            return Err(field_err(
+                file,
+                "lmk_faces_idx",
+                "missing beside `lmk_bary_coords`; expected [L]",
+            ));
+        }
+    };
+    check_shape(&faces, file, "lmk_faces_idx", &[None], "[L]")?;
+    let l = faces.shape[0];
+    check_shape(
+        &bary,
+        file,
+        "lmk_bary_coords",
+        &[Some(l), Some(3)],
+        &format!("[{l}, 3]"),
+    )?;
+    if let Some(bad) = faces.values.iter().find(|f| **f < 0.0 || f.fract() != 0.0) {
+        return Err(field_err(
+            file,
+            "lmk_faces_idx",
+            format!("{bad} is not a face index"),
+        ));
+    }
+    Ok(Some(
+        faces
+            .values
+            .iter()
+            .zip(bary.values.chunks(3))
+            .map(|(&face, w)| FaceLandmark {
+                face: face as u32,
+                weights: [w[0] as f32, w[1] as f32, w[2] as f32],
+            })
+            .collect(),
+    ))
+}
+
 /// Builds and validates a model from the SMPL-family arrays `fetch` finds.
 pub(crate) fn assemble(file: &str, fetch: &mut Fetch) -> Result<BodyModel, BodyModelError> {
     let file = file.to_owned();
@@ -286,6 +340,7 @@ pub(crate) fn assemble(file: &str, fetch: &mut Fetch) -> Result<BodyModel, BodyM
             &format!("[{v}, 3, {pose_len}]"),
         )?;
     }
+    let face_landmarks = face_landmarks(fetch, &file)?;
 
     let parents = kintree.values[..j]
         .iter()
@@ -318,13 +373,15 @@ pub(crate) fn assemble(file: &str, fetch: &mut Fetch) -> Result<BodyModel, BodyM
         pose_dirs: posedirs.map(|p| to_f32(&p.values)),
         expression_dirs,
         joint_names: joint_names(kind),
+        face_landmarks,
     };
     model.validate(&file)?;
     Ok(model)
 }
 
 /// Writes a model in the SMPL `.npz` layout [`load_npz`] reads (`v_template`, `f`,
-/// `J_regressor`, `kintree_table`, `weights`, `shapedirs`, and `posedirs` when present), through
+/// `J_regressor`, `kintree_table`, `weights`, `shapedirs`, and `posedirs` and the face
+/// landmarks `lmk_faces_idx` / `lmk_bary_coords` when present), through
 /// a temporary file renamed into place. Expression directions are not written.
 pub fn save_npz(model: &BodyModel, path: &Path) -> Result<(), BodyModelError> {
     use npyz::WriterBuilder;
@@ -368,6 +425,14 @@ pub fn save_npz(model: &BodyModel, path: &Path) -> Result<(), BodyModelError> {
             if let Some(p) = &model.pose_dirs {
                 put("posedirs", &[v, 3, 9 * (j - 1)], &mut f64s(p).into_iter())?;
             }
+            if let Some(landmarks) = &model.face_landmarks {
+                let l = landmarks.len() as u64;
+                put(
+                    "lmk_bary_coords",
+                    &[l, 3],
+                    &mut landmarks.iter().flat_map(|m| m.weights.map(f64::from)),
+                )?;
+            }
         }
         {
             let faces = model.faces.iter().map(|&x| x as i64);
@@ -387,6 +452,15 @@ pub fn save_npz(model: &BodyModel, path: &Path) -> Result<(), BodyModelError> {
                 .begin_nd()?;
             w.extend(parents.chain(children))?;
             w.finish()?;
+            if let Some(landmarks) = &model.face_landmarks {
+                let mut w = npz
+                    .array::<i64>("lmk_faces_idx", Default::default())?
+                    .default_dtype()
+                    .shape(&[landmarks.len() as u64])
+                    .begin_nd()?;
+                w.extend(landmarks.iter().map(|m| i64::from(m.face)))?;
+                w.finish()?;
+            }
         }
         let mut inner = npz.zip_writer().finish().map_err(std::io::Error::other)?;
         std::io::Write::flush(&mut inner)?;

@@ -119,6 +119,7 @@ fn octahedron_model() -> BodyModel {
         pose_dirs: Some(vec![0.0; 6 * 3 * 9]),
         expression_dirs: None,
         joint_names: vec!["root".into(), "child".into()],
+        face_landmarks: None,
     }
 }
 

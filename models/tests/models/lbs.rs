@@ -41,6 +41,7 @@ fn random_model(seed: u64) -> BodyModel {
         pose_dirs: Some(uniform(-0.05, 0.05, V * 3 * 9 * (J - 1))),
         expression_dirs: Some(uniform(-0.05, 0.05, V * 3 * E)),
         joint_names: (0..J).map(|j| format!("j{j}")).collect(),
+        face_landmarks: None,
     }
 }
 

@@ -4,7 +4,9 @@
 use burn::tensor::{Device, Tensor};
 use npyz::WriterBuilder;
 use npyz::npz::NpzWriter;
-use splatzoo_models::body::{BodyKind, BodyTensors, PoseInput, lbs, load_npz};
+use splatzoo_models::body::{
+    BodyKind, BodyTensors, FaceLandmark, PoseInput, lbs, load_npz, save_npz,
+};
 use std::path::Path;
 use zip::write::FileOptions;
 
@@ -151,6 +153,23 @@ fn write_model(path: &Path, l: &Layout, skip: Option<&str>, root: f64) {
         true,
         false,
     );
+    if j == 55 {
+        // SMPL-X's 51 static face landmarks: face 100 + 3k, barycentrics (0.2, 0.3, 0.5).
+        put_unless(
+            "lmk_faces_idx",
+            &[51],
+            Box::new((0..51).map(|k| (100 + 3 * k) as f64)),
+            false,
+            false,
+        );
+        put_unless(
+            "lmk_bary_coords",
+            &[51, 3],
+            Box::new((0..153).map(|k| [0.2, 0.3, 0.5][k % 3])),
+            true,
+            false,
+        );
+    }
     npz.zip_writer().finish().unwrap();
 }
 
@@ -181,9 +200,59 @@ fn smpl_smplh_smplx_load_with_their_released_layouts() {
             Some(layout.vertices * 3 * 9 * (layout.joints - 1))
         );
     }
+    let smplx = load_npz(&dir.path().join("smplx.npz")).unwrap();
+    assert_eq!(smplx.joint_names[22], "jaw");
+    let landmarks = smplx
+        .face_landmarks
+        .as_ref()
+        .expect("SMPL-X's face landmarks");
+    assert_eq!(landmarks.len(), 51);
     assert_eq!(
-        load_npz(&dir.path().join("smplx.npz")).unwrap().joint_names[22],
-        "jaw"
+        landmarks[4],
+        FaceLandmark {
+            face: 112,
+            weights: [0.2, 0.3, 0.5]
+        }
+    );
+    assert!(
+        load_npz(&dir.path().join("smpl.npz"))
+            .unwrap()
+            .face_landmarks
+            .is_none()
+    );
+    // They survive `save_npz`.
+    let again = dir.path().join("again.npz");
+    save_npz(&smplx, &again).unwrap();
+    assert_eq!(
+        load_npz(&again).unwrap().face_landmarks,
+        smplx.face_landmarks
+    );
+}
+
+/// Face landmarks come in pairs of arrays and must sit on the mesh.
+#[test]
+fn face_landmark_errors_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let half = dir.path().join("half.npz");
+    write_model(&half, &SMPLX, Some("lmk_bary_coords"), -1.0);
+    let err = load_npz(&half).unwrap_err().to_string();
+    assert!(
+        err.contains("half.npz") && err.contains("`lmk_bary_coords`") && err.contains("[L, 3]"),
+        "{err}"
+    );
+    let mut model = load_npz(&{
+        let whole = dir.path().join("whole.npz");
+        write_model(&whole, &SMPLX, None, -1.0);
+        whole
+    })
+    .unwrap();
+    model.face_landmarks.as_mut().unwrap()[7].face = 99_999;
+    let off = dir.path().join("off.npz");
+    save_npz(&model, &off).unwrap();
+    let err = load_npz(&off).unwrap_err().to_string();
+    assert!(
+        err.contains("off.npz") && err.contains("`lmk_faces_idx`") && err.contains("landmark 7"),
+        "{err}"
     );
 }
 

@@ -166,6 +166,7 @@ fn tiny_body() -> BodyModel {
         pose_dirs: None,
         expression_dirs: None,
         joint_names: vec!["root".into(), "middle".into(), "top".into()],
+        face_landmarks: None,
     }
 }
 

@@ -9,7 +9,7 @@ use splatzoo_datasets::openpose::{PersonKeypoints, write_keypoints};
 use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_datasets::synth::scene::posed_once;
 use splatzoo_models::body::builtin_body;
-use splatzoo_models::body::fit::{KeypointTarget, body25_targets};
+use splatzoo_models::body::fit::body25_targets;
 use splatzoo_train::backend::Backend;
 
 fn root_relative(joints: &[[f32; 3]]) -> Vec<[f64; 3]> {
@@ -51,11 +51,11 @@ fn poses_fitted_from_a_video_follow_the_truth() {
             .map(|target| match target {
                 None => [0.0; 3],
                 Some(t) => {
-                    let p = match *t {
-                        KeypointTarget::Joint(j) => frame.joints[j],
-                        KeypointTarget::Vertex(v) => frame.vertices[v],
-                    };
-                    let world = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2]) - 4.0];
+                    let p = t.locate(
+                        |j| frame.joints[j].map(f64::from),
+                        |v| frame.vertices[v].map(f64::from),
+                    );
+                    let world = [p[0], p[1], p[2] - 4.0];
                     let px = pinhole.project(world).expect("in front");
                     [
                         (px[0] + 2.0 * rng.normal()) as f32,

@@ -103,6 +103,7 @@ pub fn generate() -> BuiltinBody {
         pose_dirs: None,
         expression_dirs: None,
         joint_names: SMPL_JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
+        face_landmarks: None,
     };
     debug_assert_eq!(model.joint_count(), JOINTS);
     BuiltinBody {

@@ -1,17 +1,51 @@
-//! What 2-D keypoints mark on a body: joints or surface vertices, OpenPose's layouts (BODY_25,
-//! the 21-point hands, the 70-point face) on SMPL-layout bodies, and SMPLify's torso subset.
+//! What 2-D keypoints mark on a body: joints, vertices or points on triangles; OpenPose's
+//! layouts (BODY_25, the 21-point hands, the 70-point face) on SMPL-layout bodies; SMPLify's
+//! torso subset.
 //!
 //! Body points are joints or landmarks; a hand's wrist and finger joints are joints found by
 //! their SMPL-H / SMPL-X names (`left_index1`…; a 24-joint body has none, so only its wrist and
-//! the fingertips its landmarks mark count) and its fingertips landmarks; the face's nose tip,
-//! chin, mouth and pupils are landmarks. The face's other 63 points (contour, brows, lids, lips)
-//! lie on a face model's surface embedding that no table here carries, and stay unused.
+//! the fingertips its landmarks mark count) and its fingertips landmarks; the face's brows,
+//! nose, eyes and mouth are SMPL-X's barycentric face landmarks where the model file has them
+//! (else its nose tip and mouth are named landmarks), its chin and pupils named landmarks. The face contour (SMPL-X's
+//! dynamic landmarks, which follow the head's turn) stays unused.
+
+use crate::body::BodyModel;
 
 /// What a keypoint marks on the body.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum KeypointTarget {
     Joint(usize),
     Vertex(usize),
+    /// A point on a triangle: its three vertices and barycentric weights (SMPL-X's face
+    /// landmarks).
+    Surface {
+        vertices: [usize; 3],
+        weights: [f32; 3],
+    },
+}
+
+impl KeypointTarget {
+    /// Where the target is on a body whose joints and vertices `joint` and `vertex` give.
+    pub fn locate(
+        self,
+        joint: impl Fn(usize) -> [f64; 3],
+        vertex: impl Fn(usize) -> [f64; 3],
+    ) -> [f64; 3] {
+        match self {
+            KeypointTarget::Joint(j) => joint(j),
+            KeypointTarget::Vertex(v) => vertex(v),
+            KeypointTarget::Surface { vertices, weights } => {
+                let mut p = [0.0; 3];
+                for (&v, &w) in vertices.iter().zip(&weights) {
+                    let q = vertex(v);
+                    for k in 0..3 {
+                        p[k] += f64::from(w) * q[k];
+                    }
+                }
+                p
+            }
+        }
+    }
 }
 
 /// One 2-D keypoint: what it marks, where it is (pixels), how sure the detector was.
@@ -111,10 +145,19 @@ pub fn hand21_targets(
     targets
 }
 
+/// The first of OpenPose's face points SMPL-X's 51 static landmarks mark (17–67 in order).
+pub const FACE_EMBEDDING_START: usize = 17;
+
 /// What each point of OpenPose's 70-point face (the 68-point iBUG layout and the two pupils)
-/// marks: the chin (8), the nose tip (30), the mouth (62, the upper inner lip's middle, where
-/// a closed mouth's slit is) and the pupils (68 right, 69 left) by landmarks; the rest nothing.
-pub fn face70_targets(landmark: impl Fn(&str) -> Option<u32>) -> [Option<KeypointTarget>; 70] {
+/// marks on `model`: points 17–67 (brows, nose, eyes, mouth) on its face landmarks where it
+/// has SMPL-X's 51 ([`BodyModel::face_landmarks`]); else, and for the chin and the pupils, the
+/// landmarks `landmark` names — the chin (8), the nose tip (30), the mouth (62, the upper inner
+/// lip's middle, where a closed mouth's slit is), the pupils (68 right, 69 left). The contour
+/// (0–16, SMPL-X's dynamic landmarks) stays unused.
+pub fn face70_targets(
+    model: &BodyModel,
+    landmark: impl Fn(&str) -> Option<u32>,
+) -> [Option<KeypointTarget>; 70] {
     let mut targets = [None; 70];
     for (point, name) in [
         (8, "chin"),
@@ -124,6 +167,18 @@ pub fn face70_targets(landmark: impl Fn(&str) -> Option<u32>) -> [Option<Keypoin
         (69, "left_eye"),
     ] {
         targets[point] = landmark(name).map(|v| KeypointTarget::Vertex(v as usize));
+    }
+    if let Some(landmarks) = &model.face_landmarks
+        && landmarks.len() == 51
+    {
+        for (k, l) in landmarks.iter().enumerate() {
+            let f = 3 * l.face as usize;
+            let corner = |c: usize| model.faces[f + c] as usize;
+            targets[FACE_EMBEDDING_START + k] = Some(KeypointTarget::Surface {
+                vertices: [corner(0), corner(1), corner(2)],
+                weights: l.weights,
+            });
+        }
     }
     targets
 }
@@ -138,13 +193,13 @@ pub struct PersonTargets {
 }
 
 impl PersonTargets {
-    /// The targets of a body with joints `joint_names` and surface landmarks `landmark`.
-    pub fn new(joint_names: &[String], landmark: impl Fn(&str) -> Option<u32>) -> Self {
+    /// The targets on `model`, whose surface landmarks `landmark` names.
+    pub fn new(model: &BodyModel, landmark: impl Fn(&str) -> Option<u32>) -> Self {
         Self {
             body: body25_targets(&landmark),
-            face: face70_targets(&landmark),
-            left_hand: hand21_targets(Hand::Left, joint_names, &landmark),
-            right_hand: hand21_targets(Hand::Right, joint_names, &landmark),
+            face: face70_targets(model, &landmark),
+            left_hand: hand21_targets(Hand::Left, &model.joint_names, &landmark),
+            right_hand: hand21_targets(Hand::Right, &model.joint_names, &landmark),
         }
     }
 

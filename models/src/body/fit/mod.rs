@@ -150,21 +150,28 @@ impl Objective<'_> {
         );
         let [_, j, _] = posed.joints.dims();
         let [_, v, _] = posed.vertices.dims();
-        // One gather from `[joints ‖ vertices]` for every target.
-        let ids: Vec<i64> = targets
-            .iter()
-            .map(|t| match *t {
-                KeypointTarget::Joint(k) => k as i64,
-                KeypointTarget::Vertex(k) => (j + k) as i64,
-            })
-            .collect();
-        let n = ids.len();
-        let ids = Tensor::<1, Int>::from_data(TensorData::new(ids, [n]), &self.device);
-        Tensor::cat(
+        // One gather of three rows from `[joints ‖ vertices]` per target, blended by weights
+        // (a joint or a vertex: its row once, weight 1).
+        let (mut ids, mut blend) = (Vec::new(), Vec::new());
+        for t in targets {
+            let (rows, w) = match *t {
+                KeypointTarget::Joint(k) => ([k; 3], [1.0, 0.0, 0.0]),
+                KeypointTarget::Vertex(k) => ([j + k; 3], [1.0, 0.0, 0.0]),
+                KeypointTarget::Surface { vertices, weights } => (vertices.map(|k| j + k), weights),
+            };
+            ids.extend(rows.map(|r| r as i64));
+            blend.extend(w);
+        }
+        let n = targets.len();
+        let ids = Tensor::<1, Int>::from_data(TensorData::new(ids, [3 * n]), &self.device);
+        let blend = Tensor::<2>::from_data(TensorData::new(blend, [3 * n, 1]), &self.device);
+        let rows = Tensor::cat(
             vec![posed.joints.reshape([j, 3]), posed.vertices.reshape([v, 3])],
             0,
         )
         .select(0, ids)
+            * blend;
+        rows.reshape([n, 3, 3]).sum_dim(1).reshape([n, 3])
     }
 
     /// The pixel coordinates `[K, 2]` of world points `[K, 3]`.
@@ -374,6 +381,9 @@ pub fn fit_body(
         let fits = match o.target {
             KeypointTarget::Joint(k) => k < j,
             KeypointTarget::Vertex(k) => k < v,
+            KeypointTarget::Surface { vertices, weights } => {
+                vertices.iter().all(|&k| k < v) && weights.iter().all(|w| w.is_finite())
+            }
         };
         if !fits {
             return Err(input_error(format!(
