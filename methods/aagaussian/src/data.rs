@@ -13,14 +13,19 @@
 use crate::body_prior::AvatarBody;
 use crate::cameras::orbit_camera;
 use crate::error::AagError;
+use crate::face_align::{ALIGNMENT_POINTS, PortraitCrop, crop_from_portrait};
 use crate::oracle::Targets;
-use crate::portrait_fit::{PortraitFit, fit_portrait};
+use crate::portrait_fit::{
+    PORTRAIT_EYE, PORTRAIT_FOVY_DEGREES, PORTRAIT_TARGET, PortraitFit, fit_portrait,
+};
 use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
 use splatzoo_datasets::render::{
     Albedo, Light, Lighting, MeshInstance, MeshRender, RenderSettings, Texture, render,
 };
 use splatzoo_datasets::synth::identity::Identity;
+use splatzoo_datasets::synth::keypoints::pinhole;
+use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_datasets::synth::scene::posed_once;
 use splatzoo_models::body::builtin_body;
 use splatzoo_rasterizer::Camera;
@@ -100,6 +105,19 @@ pub struct PortraitConfig {
     /// Surface marks of `body_model` (landmarks and optionally the face vertices, JSON; see
     /// `splatzoo_models::body::marks`), for a mesh outside the SMPL-family tables.
     pub body_marks: Option<PathBuf>,
+    /// Where the face crop comes from (U8).
+    pub face_crop: FaceCropSource,
+}
+
+/// The face crop's source.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FaceCropSource {
+    /// The face identity rendered from the face camera (exact: the face loss's optimum is known).
+    Render,
+    /// Cut from the portrait photo by U8's alignment of its face keypoints (what a user's photo
+    /// gets: [`crate::face_align`]).
+    Portrait,
 }
 
 impl Default for PortraitConfig {
@@ -125,6 +143,7 @@ impl Default for PortraitConfig {
             view_variants: false,
             body_model: None,
             body_marks: None,
+            face_crop: FaceCropSource::Render,
         }
     }
 }
@@ -324,6 +343,8 @@ pub struct PortraitCapture {
     pub face_camera: Camera,
     /// `[3, S, S]` face crop in [0, 1] (background black) and `[S, S]` face mask.
     pub face_crop: Vec<f32>,
+    /// With `face_crop = "portrait"`: the alignment's RMS residual, crop pixels.
+    pub face_alignment_px: Option<f64>,
     pub face_mask: Vec<bool>,
     /// `[S, S]` the canonical body's depth from the face camera (∞ off the body): D_m of U6.
     pub face_depth: Vec<f32>,
@@ -498,8 +519,6 @@ impl PortraitCapture {
             config.face_fovy_degrees,
             config.face_size,
         );
-        let face_render = bank.render(config.face_identity, &face_camera);
-        let face_crop = planar_rgb(&face_render);
         let indicator: Vec<[f32; 3]> = avatar
             .marks
             .face_region
@@ -525,6 +544,33 @@ impl PortraitCapture {
         );
         let face_mask = mask_render.color.iter().map(|c| c[0] > 0.5).collect();
         let face_depth = mask_render.depth.clone();
+        let (face_crop, face_alignment_px) = match config.face_crop {
+            FaceCropSource::Render => (
+                planar_rgb(&bank.render(config.face_identity, &face_camera)),
+                None,
+            ),
+            FaceCropSource::Portrait => {
+                let keep: Vec<bool> = face_depth.iter().map(|d| d.is_finite()).collect();
+                let photo_camera = Camera::look_at(
+                    normalise(&PORTRAIT_EYE),
+                    normalise(&PORTRAIT_TARGET),
+                    [0.0, 1.0, 0.0],
+                    PORTRAIT_FOVY_DEGREES,
+                    config.portrait_size,
+                    config.portrait_size,
+                );
+                let cropped = synthetic_portrait_crop(
+                    &bank,
+                    config,
+                    &photo_camera,
+                    &avatar,
+                    &canonical,
+                    &face_camera,
+                    &keep,
+                )?;
+                (cropped.crop, Some(cropped.residual_px))
+            }
+        };
 
         let mut eval_cameras = Vec::new();
         for &el in &config.eval_elevations {
@@ -561,10 +607,50 @@ impl PortraitCapture {
             head_height,
             face_camera,
             face_crop,
+            face_alignment_px,
             face_mask,
             face_depth,
             eval_cameras,
             eval_targets,
         })
     }
+}
+
+/// The face identity photographed by `photo_camera` (the portrait), its face points detected
+/// with the keypoints' noise, and the crop cut from it by U8 ([`crop_from_portrait`]).
+fn synthetic_portrait_crop(
+    bank: &IdentityBank,
+    config: &PortraitConfig,
+    photo_camera: &Camera,
+    avatar: &AvatarBody,
+    canonical: &[[f32; 3]],
+    face_camera: &Camera,
+    keep: &[bool],
+) -> Result<PortraitCrop, AagError> {
+    let photo = planar_rgb(&bank.render(config.face_identity, photo_camera));
+    let seen = &bank.identities[config.face_identity].vertices;
+    let (photo_pinhole, face_pinhole) = (pinhole(photo_camera), pinhole(face_camera));
+    let mut rng = Rng(config.seed ^ 0xFACE);
+    let noise = config.keypoint_noise_px;
+    let photo_points = ALIGNMENT_POINTS.map(|(_, name)| {
+        let p = builtin_body()
+            .landmark(name)
+            .and_then(|v| photo_pinhole.project(seen[v as usize].map(f64::from)))?;
+        Some([p[0] + noise * rng.normal(), p[1] + noise * rng.normal()])
+    });
+    let body_points = ALIGNMENT_POINTS.map(|(_, name)| {
+        avatar
+            .landmark(name)
+            .and_then(|v| face_pinhole.project(canonical[v as usize].map(f64::from)))
+    });
+    let size = config.portrait_size as usize;
+    crop_from_portrait(
+        &photo,
+        size,
+        size,
+        &photo_points,
+        &body_points,
+        config.face_size as usize,
+        keep,
+    )
 }

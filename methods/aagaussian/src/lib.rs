@@ -21,6 +21,7 @@
 //! | U5 | centre-weighted face colour term | [`face::face_colour_loss`], [`face::centre_weights`] |
 //! | U6 | line-of-sight distance to the body | [`face::LineOfSight::loss`] |
 //! | U7 | fixed face camera | [`data::PortraitCapture::build`] |
+//! | U8 | face crop from a portrait: 2-D similarity of the face points, resampling | [`face_align::umeyama_2d`], [`face_align::crop_from_portrait`] |
 //! | U9 | animation binding: nearest face, barycentrics, normal offset; re-posing | [`binding::bind`], [`binding::SurfaceBinding::pose`], [`animate::animate`] |
 //! | T3 | guidance fixed points under point masses (every run's `metrics.json`) | [`fixed_points::check`] |
 //! | S1/S2 | point-mass and mixture oracles | [`oracle::MixtureOracle`], [`oracle::posterior`] |
@@ -37,6 +38,7 @@ mod error;
 pub mod eval;
 mod export;
 pub mod face;
+pub mod face_align;
 pub mod fixed_points;
 pub mod init;
 pub mod loss;

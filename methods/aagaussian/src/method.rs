@@ -120,9 +120,16 @@ impl Aag {
                 ),
             },
             format!(
-                "face loss: crop of identity {} from the fixed face camera, weight {} from step \
-                 {}, line of sight ×{}",
+                "face loss: crop of identity {} {}, weight {} from step {}, line of sight ×{}",
                 data.face_identity,
+                match capture.face_alignment_px {
+                    None => "rendered from the fixed face camera".to_owned(),
+                    Some(px) => format!(
+                        "cut from its {}² portrait by U8's face-point alignment ({px:.2} px \
+                         residual)",
+                        data.portrait_size
+                    ),
+                },
                 config.face.weight,
                 config.face.start,
                 config.face.line_of_sight

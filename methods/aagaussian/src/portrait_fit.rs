@@ -35,13 +35,18 @@ pub struct PortraitFit {
     pub keypoints: Option<PersonKeypoints>,
 }
 
+/// Where the portrait camera stands and looks (metres, body space), and its field of view.
+pub const PORTRAIT_EYE: [f32; 3] = [0.0, -0.1, 3.2];
+pub const PORTRAIT_TARGET: [f32; 3] = [0.0, -0.1, 0.0];
+pub const PORTRAIT_FOVY_DEGREES: f32 = 40.0;
+
 /// The portrait camera: front, 3.2 m away at chest height, 40° across, `size`² pixels.
 pub fn portrait_camera(size: u32) -> Camera {
     Camera::look_at(
-        [0.0, -0.1, 3.2],
-        [0.0, -0.1, 0.0],
+        PORTRAIT_EYE,
+        PORTRAIT_TARGET,
         [0.0, 1.0, 0.0],
-        40.0,
+        PORTRAIT_FOVY_DEGREES,
         size,
         size,
     )

@@ -10,6 +10,7 @@ mod backends;
 mod binding;
 mod common;
 mod extremes;
+mod face_crop;
 mod guidance;
 mod onnx;
 mod sds;
