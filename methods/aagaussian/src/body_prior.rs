@@ -87,11 +87,6 @@ impl AvatarBody {
         }
     }
 
-    /// The built-in body (whose identities' true shapes apply to it)?
-    pub fn is_builtin(&self) -> bool {
-        self.source == "built-in"
-    }
-
     pub fn landmark(&self, name: &str) -> Option<u32> {
         self.marks.landmark(name)
     }

@@ -5,7 +5,7 @@
 //! that camera (D_m of U6), and the held-out views the avatar is scored on.
 //!
 //! The avatar's body is the body prior: the avatar's body model ([`AvatarBody`]: the built-in
-//! body, or a user's SMPL-X file) with the shape fitted to the portrait's keypoints
+//! body, or a user's SMPL-family file) with the shape fitted to the portrait's keypoints
 //! ([`crate::portrait_fit`]); its face region places the face camera and masks the face. Units: its canonical mesh is normalised as
 //! HumanGaussian does (bounding box centred at the origin, longest side 0.6 · 1.1¹⁰ = 1.5562);
 //! every identity shares that transform, and `metres_per_unit` returns to metres.
@@ -13,7 +13,7 @@
 use crate::body_prior::AvatarBody;
 use crate::cameras::orbit_camera;
 use crate::error::AagError;
-use crate::face_align::{ALIGNMENT_POINTS, PortraitCrop, crop_from_portrait};
+use crate::face_align::{ALIGNMENT_LANDMARKS, PortraitCrop, crop_from_portrait};
 use crate::oracle::Targets;
 use crate::portrait_fit::{
     PORTRAIT_EYE, PORTRAIT_FOVY_DEGREES, PORTRAIT_TARGET, PortraitFit, fit_portrait,
@@ -632,13 +632,13 @@ fn synthetic_portrait_crop(
     let (photo_pinhole, face_pinhole) = (pinhole(photo_camera), pinhole(face_camera));
     let mut rng = Rng(config.seed ^ 0xFACE);
     let noise = config.keypoint_noise_px;
-    let photo_points = ALIGNMENT_POINTS.map(|(_, name)| {
+    let photo_points = ALIGNMENT_LANDMARKS.map(|name| {
         let p = builtin_body()
             .landmark(name)
             .and_then(|v| photo_pinhole.project(seen[v as usize].map(f64::from)))?;
         Some([p[0] + noise * rng.normal(), p[1] + noise * rng.normal()])
     });
-    let body_points = ALIGNMENT_POINTS.map(|(_, name)| {
+    let body_points = ALIGNMENT_LANDMARKS.map(|name| {
         avatar
             .landmark(name)
             .and_then(|v| face_pinhole.project(canonical[v as usize].map(f64::from)))

@@ -11,7 +11,7 @@ use crate::error::AagError;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Similarity2 {
     pub scale: f64,
-    /// Rotation angle, radians (counter-clockwise in the pixel frame, y down).
+    /// Rotation angle, radians (from +x towards +y: clockwise on screen, y pointing down).
     pub angle: f64,
     pub translation: [f64; 2],
 }
@@ -73,6 +73,12 @@ pub fn umeyama_2d(src: &[[f64; 2]], dst: &[[f64; 2]]) -> Result<Similarity2, Aag
     }
     let angle = im.atan2(re);
     let scale = (re * re + im * im).sqrt() / spread;
+    if !(scale > 1e-9 && scale.is_finite()) {
+        return Err(AagError::input(
+            "face keypoints",
+            format!("the face points map to one point (scale {scale:.3e}): nothing to align"),
+        ));
+    }
     let (sin, cos) = angle.sin_cos();
     let rotated = [
         scale * (cos * ms[0] - sin * ms[1]),
@@ -129,14 +135,9 @@ pub fn warp_crop(
     out
 }
 
-/// The face points U8 aligns by: OpenPose face point and the body landmark it marks.
-pub const ALIGNMENT_POINTS: [(usize, &str); 5] = [
-    (68, "right_eye"),
-    (69, "left_eye"),
-    (30, "nose_tip"),
-    (62, "mouth"),
-    (8, "chin"),
-];
+/// The body landmarks U8 aligns by, the OpenPose face points 68, 69 (pupils), 30 (nose tip),
+/// 62 (mouth) and 8 (chin).
+pub const ALIGNMENT_LANDMARKS: [&str; 5] = ["right_eye", "left_eye", "nose_tip", "mouth", "chin"];
 
 /// A face crop made from a portrait photo.
 #[derive(Debug, Clone, PartialEq)]
@@ -150,7 +151,7 @@ pub struct PortraitCrop {
 }
 
 /// U8: the crop of the planar `[3, height, width]` `photo` whose face points `photo_points`
-/// (pixels, by [`ALIGNMENT_POINTS`] slot; `None` where the detector missed one) meet the face
+/// (pixels, by [`ALIGNMENT_LANDMARKS`] slot; `None` where the detector missed one) meet the face
 /// camera's projections `body_points` of the avatar's landmarks (`None` where the body has no
 /// such landmark), `size`² pixels, black outside `keep`.
 pub fn crop_from_portrait(

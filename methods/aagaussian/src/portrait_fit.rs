@@ -2,7 +2,8 @@
 //! photographed from the front in its canonical pose by a known camera, its BODY_25 keypoints
 //! projected from the true mesh with pixel noise (what an OpenPose detector would give), and
 //! the keypoint fit of [`splatzoo_models::body::fit`] recovering the shape of the avatar's body
-//! model ([`AvatarBody`]: the built-in body, or a user's SMPL-X) with the floor known. The
+//! model ([`AvatarBody`]: the built-in body, or a user's SMPL-family body) with the floor
+//! known. The
 //! avatar's canonical mesh is the fitted body, never the true one; the identity's truth only
 //! grades the fit (its joints against the fitted model's first 22, which every SMPL-layout body
 //! shares).

@@ -3,7 +3,8 @@
 //! present), fitted frame by frame by
 //! [`splatzoo_models::body::fit::fit_sequence`] (the first frame in full, each next one from
 //! the previous with the shape held) into a pose sequence that drives the avatar. The fit is
-//! of the avatar's own body model ([`AvatarBody`]: the built-in body or a user's SMPL-X); the
+//! of the avatar's own body model ([`AvatarBody`]: the built-in body or a user's SMPL-family
+//! body); the
 //! sequence keeps the 22 body joints in the SMPL layout the animation reads.
 //!
 //! The video's camera: a pinhole of focal length `focal_px` with the principal point at the
@@ -46,14 +47,29 @@ impl VideoCamera {
     }
 }
 
+/// OpenPose puts pixel centres on integers; the cameras here put them at +0.5.
+const OPENPOSE_PIXEL_CENTRE: f32 = 0.5;
+
 /// One frame's keypoints (BODY_25, and the face and hands where the file has them) as
-/// observations of `body`.
+/// observations of `body`, moved to this crate's pixel centres.
 pub fn observations(body: &AvatarBody, person: &PersonKeypoints) -> Vec<Observation> {
+    let centred = |points: &[[f32; 3]]| -> Vec<[f32; 3]> {
+        points
+            .iter()
+            .map(|k| {
+                [
+                    k[0] + OPENPOSE_PIXEL_CENTRE,
+                    k[1] + OPENPOSE_PIXEL_CENTRE,
+                    k[2],
+                ]
+            })
+            .collect()
+    };
     body.targets().observations(
-        &person.body,
-        &person.face,
-        &person.left_hand,
-        &person.right_hand,
+        &centred(&person.body),
+        &centred(&person.face),
+        &centred(&person.left_hand),
+        &centred(&person.right_hand),
     )
 }
 

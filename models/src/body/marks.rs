@@ -14,8 +14,7 @@
 //! vertices whose dominant skinning joint is the head (or SMPL-X's jaw and eyes), whose rest
 //! normal faces forward (`n · +z > 0.3`: SMPL-family bodies face +z), that lie below the
 //! brow, taken as `0.6 ×` the eye-to-nose-tip drop above the eyes, and in front of the ears
-//! (the rule's one addition: the spec's three tests let the back of the jaw and the neck's
-//! forward-facing folds in).
+//! (the rule's one addition: the spec's three tests let the jaw's underside in).
 
 use super::builtin::builtin_body;
 use super::model::{BodyKind, BodyModel, BodyModelError};

@@ -2,7 +2,7 @@
 //! `.pkl` arrays). Keys read: `v_template [V, 3]`, `f [F, 3]`, `J_regressor [J, V]` (dense),
 //! `kintree_table [2, J]` (row 0: parents, root's parent −1 or 2³²−1), `weights [V, J]`,
 //! `shapedirs [V, 3, S]`, optional `posedirs [V, 3, 9 (J − 1)]` and SMPL-X's face landmarks
-//! `lmk_faces_idx [L]` with `lmk_bary_coords [L, 3]`. The family follows from J:
+//! `lmk_faces_idx [51]` with `lmk_bary_coords [51, 3]`. The family follows from J:
 //! 24 SMPL, 52 SMPL-H, 55 SMPL-X. SMPL-X keeps its expression directions in `shapedirs` after
 //! the shape ones: columns 300.. when it has at least 400, else 10.. (as the `smplx` package).
 
@@ -222,8 +222,8 @@ pub fn load_npz(path: &Path) -> Result<BodyModel, BodyModelError> {
     assemble(&file, &mut fetch)
 }
 
-/// SMPL-X's static face landmarks, where the file has `lmk_faces_idx` `[L]` and
-/// `lmk_bary_coords` `[L, 3]` (both or neither).
+/// SMPL-X's static face landmarks, where the file has `lmk_faces_idx` `[51]` and
+/// `lmk_bary_coords` `[51, 3]` (both or neither).
 fn face_landmarks(
     fetch: &mut Fetch,
     file: &str,
@@ -246,7 +246,13 @@ fn face_landmarks(
             ));
         }
     };
-    check_shape(&faces, file, "lmk_faces_idx", &[None], "[L]")?;
+    check_shape(
+        &faces,
+        file,
+        "lmk_faces_idx",
+        &[Some(51)],
+        "[51] (SMPL-X's static face landmarks)",
+    )?;
     let l = faces.shape[0];
     check_shape(
         &bary,

@@ -351,6 +351,20 @@ fn hand_keypoints_turn_the_wrists_body25_cannot_see() {
 fn openpose_face_and_hand_points_find_their_marks() {
     let body = builtin_body();
     let builtin = PersonTargets::new(&body.model, |n| body.landmark(n));
+    let (joints, vertices) = (body.model.joint_count(), body.model.vertex_count());
+    let parts = [
+        &builtin.body[..],
+        &builtin.face[..],
+        &builtin.left_hand[..],
+        &builtin.right_hand[..],
+    ];
+    for t in parts.iter().flat_map(|p| p.iter()).flatten() {
+        match *t {
+            KeypointTarget::Joint(j) => assert!(j < joints, "{t:?}"),
+            KeypointTarget::Vertex(v) => assert!(v < vertices, "{t:?}"),
+            KeypointTarget::Surface { .. } => panic!("the built-in body has no face embedding"),
+        }
+    }
     let marked = |t: &[Option<KeypointTarget>]| t.iter().flatten().count();
     assert_eq!(marked(&builtin.face), 5, "chin, nose tip, mouth, pupils");
     assert_eq!(

@@ -46,6 +46,10 @@ fn the_similarity_is_recovered_and_degenerate_points_refused() {
         .to_string();
     assert!(message.contains("two distinct face points"), "{message}");
     assert!(umeyama_2d(&[[3.0, 4.0]; 3], &[[1.0, 1.0], [2.0, 2.0], [0.0, 5.0]]).is_err());
+    let message = umeyama_2d(&[[0.0, 0.0], [9.0, 1.0]], &[[5.0, 5.0]; 2])
+        .expect_err("onto one point")
+        .to_string();
+    assert!(message.contains("map to one point"), "{message}");
 }
 
 /// A pure shift by whole pixels moves every pixel by that shift; the kept mask blacks the rest.
@@ -91,6 +95,37 @@ fn masked_psnr(a: &[f32], b: &[f32], mask: &[bool]) -> f64 {
         }
     }
     -10.0 * (squared / count as f64).log10()
+}
+
+/// Halving the image: each crop pixel's centre lands where four image pixels meet, so it is
+/// their mean (pixel centres at +0.5 on both sides; without them it would be one pixel).
+#[test]
+fn a_halved_crop_averages_four_pixels() {
+    let (w, h) = (8, 6);
+    let image: Vec<f32> = (0..3 * w * h)
+        .map(|k| ((k * 7) % 23) as f32 / 23.0)
+        .collect();
+    let half = Similarity2 {
+        scale: 0.5,
+        angle: 0.0,
+        translation: [0.0, 0.0],
+    };
+    let size = 3;
+    let crop = warp_crop(&image, w, h, &half, size, &vec![true; size * size]);
+    for c in 0..3 {
+        for row in 0..size {
+            for col in 0..size {
+                let px = |x: usize, y: usize| image[c * w * h + y * w + x];
+                let (x, y) = (2 * col, 2 * row);
+                let want = 0.25 * (px(x, y) + px(x + 1, y) + px(x, y + 1) + px(x + 1, y + 1));
+                let got = crop[c * size * size + row * size + col];
+                assert!(
+                    (got - want).abs() < 1e-6,
+                    "({c}, {row}, {col}): {got} vs {want}"
+                );
+            }
+        }
+    }
 }
 
 /// The portrait-cut crop against the face camera's render over the face mask: the face points

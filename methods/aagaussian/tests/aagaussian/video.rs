@@ -57,9 +57,10 @@ fn poses_fitted_from_a_video_follow_the_truth() {
                     );
                     let world = [p[0], p[1], p[2] - 4.0];
                     let px = pinhole.project(world).expect("in front");
+                    // OpenPose's pixel centres are on integers.
                     [
-                        (px[0] + 2.0 * rng.normal()) as f32,
-                        (px[1] + 2.0 * rng.normal()) as f32,
+                        (px[0] - 0.5 + 2.0 * rng.normal()) as f32,
+                        (px[1] - 0.5 + 2.0 * rng.normal()) as f32,
                         0.9,
                     ]
                 }

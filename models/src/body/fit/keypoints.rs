@@ -6,8 +6,8 @@
 //! their SMPL-H / SMPL-X names (`left_index1`…; a 24-joint body has none, so only its wrist and
 //! the fingertips its landmarks mark count) and its fingertips landmarks; the face's brows,
 //! nose, eyes and mouth are SMPL-X's barycentric face landmarks where the model file has them
-//! (else its nose tip and mouth are named landmarks), its chin and pupils named landmarks. The face contour (SMPL-X's
-//! dynamic landmarks, which follow the head's turn) stays unused.
+//! (else its nose tip and mouth are named landmarks), its chin and pupils named landmarks. The face contour apart from
+//! the chin (SMPL-X's dynamic landmarks, which follow the head's turn) stays unused.
 
 use crate::body::BodyModel;
 
@@ -152,8 +152,8 @@ pub const FACE_EMBEDDING_START: usize = 17;
 /// marks on `model`: points 17–67 (brows, nose, eyes, mouth) on its face landmarks where it
 /// has SMPL-X's 51 ([`BodyModel::face_landmarks`]); else, and for the chin and the pupils, the
 /// landmarks `landmark` names — the chin (8), the nose tip (30), the mouth (62, the upper inner
-/// lip's middle, where a closed mouth's slit is), the pupils (68 right, 69 left). The contour
-/// (0–16, SMPL-X's dynamic landmarks) stays unused.
+/// lip's middle, where a closed mouth's slit is), the pupils (68 right, 69 left). The rest of
+/// the contour (0–16 but the chin: SMPL-X's dynamic landmarks) stays unused.
 pub fn face70_targets(
     model: &BodyModel,
     landmark: impl Fn(&str) -> Option<u32>,
@@ -173,11 +173,14 @@ pub fn face70_targets(
     {
         for (k, l) in landmarks.iter().enumerate() {
             let f = 3 * l.face as usize;
-            let corner = |c: usize| model.faces[f + c] as usize;
-            targets[FACE_EMBEDDING_START + k] = Some(KeypointTarget::Surface {
-                vertices: [corner(0), corner(1), corner(2)],
-                weights: l.weights,
-            });
+            // A validated model's faces hold every landmark's triangle; an unvalidated one
+            // loses the landmarks it does not.
+            if let Some(&[a, b, c]) = model.faces.get(f..f + 3) {
+                targets[FACE_EMBEDDING_START + k] = Some(KeypointTarget::Surface {
+                    vertices: [a as usize, b as usize, c as usize],
+                    weights: l.weights,
+                });
+            }
         }
     }
     targets

@@ -7,8 +7,9 @@
 //!
 //! with `ρ(r²) = σ² r² / (σ² + r²)` (Geman–McClure, σ in pixels), `X_k` a joint or a surface
 //! vertex of the posed body ([`KeypointTarget`]), `L_limit` the box limits of
-//! [`super::priors`] (24-joint bodies), and an optional floor the feet rest on: one view fixes
-//! a body only up to a scale about the camera (a taller body farther away), which the shape
+//! [`super::priors`] (all 24 joints of SMPL-layout bodies; the 22 body joints of SMPL-H/X),
+//! and an optional floor the feet rest on: one view fixes a body only up to a scale about the
+//! camera (a taller body farther away), which the shape
 //! prior settles near the mean body unless the floor is known. Stages, as SMPLify:
 //! the root orientation and translation on the torso alone, from the depth the torso's pixel
 //! length implies and from both facings (the better kept); then everything, with the pose
@@ -132,7 +133,8 @@ struct Objective<'a> {
     observations: Vec<Observation>,
     config: &'a FitConfig,
     device: Device,
-    limits: bool,
+    /// Joints the angle limits hold (the first this many of SMPL's table; 0: none).
+    limited_joints: usize,
     /// `[1, 3J]` the starting pose `λ_init` pulls towards, where the fit has one.
     init_pose: Option<Tensor<2>>,
 }
@@ -243,10 +245,12 @@ impl Objective<'_> {
                     .sum()
                     .mul_scalar(self.config.init_pose_weight);
         }
-        if self.limits {
-            let full = params.clone().slice([0..1, l.pose()]);
+        if self.limited_joints > 0 {
+            let k = self.limited_joints;
+            let start = l.pose().start;
+            let limited = params.clone().slice([0..1, start..start + 3 * k]);
             loss = loss
-                + angle_limit_loss(full, &SMPL_ANGLE_LIMITS_DEG)
+                + angle_limit_loss(limited, &SMPL_ANGLE_LIMITS_DEG[..k])
                     .mul_scalar(self.config.limit_weight);
         }
         if let (Some(ground), false) = (self.config.ground, self.config.feet.is_empty()) {
@@ -418,7 +422,13 @@ pub fn fit_body(
         camera,
         observations: observations.to_vec(),
         config,
-        limits: j == SMPL_ANGLE_LIMITS_DEG.len(),
+        // SMPL's 24 joints, or the 22 body joints SMPL-H and SMPL-X share with it (their 23rd
+        // on is a jaw, eyes or fingers, which the table does not cover).
+        limited_joints: match j {
+            24 => 24,
+            j if j > 24 => 22,
+            _ => 0,
+        },
         init_pose: init.filter(|_| config.init_pose_weight > 0.0).map(|start| {
             let values: Vec<f32> = start.pose.iter().map(|&v| v as f32).collect();
             Tensor::<2>::from_data(TensorData::new(values, [1, 3 * j]), &ad)
