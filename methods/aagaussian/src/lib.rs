@@ -8,7 +8,7 @@
 //!
 //! | Eq. | what | implemented by |
 //! |---|---|---|
-//! | Eq. 1 | SMPL-X `M(β, θ, ψ)` | [`splatzoo_models::body::lbs::pose`] (the built-in body stands in; [`data::CanonicalPose`] is the canonical pose); β fitted from the portrait's keypoints by [`splatzoo_models::body::fit`] ([`portrait_fit`]) |
+//! | Eq. 1 | SMPL-X `M(β, θ, ψ)` | [`splatzoo_models::body::lbs::pose`] (the built-in body, or a user's SMPL-family file with its marks: [`body_prior::AvatarBody`]; [`data::CanonicalPose`] is the canonical pose); β fitted from the portrait's keypoints by [`splatzoo_models::body::fit`] ([`portrait_fit`]) |
 //! | Eq. 2 | 3DGS rendering | [`splatzoo_rasterizer::rasterize`] unchanged, SH degree 0, black background ([`trainer::render_views`]) |
 //! | Eq. 3 | `∇L_SDS = E[w_t (ε_φ(x_t; y) − ε) ∂x/∂θ]`, `x_t = α_t x + σ_t ε` | [`sds::SdsConfig::guidance`], [`sds::surrogate`], [`schedule::NoiseSchedule`] |
 //! | Eq. 4 | accumulated depth `d(p) = Σ d_i σ_i Π(1 − σ_j)`, normalised | [`loss::depth_branch`], [`loss::normalise_depth`] |
