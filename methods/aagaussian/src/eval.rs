@@ -4,7 +4,8 @@
 //! PSNR/SSIM, prompt alignment in place of the CLIP score (the share of held-out views closer in
 //! PSNR to the prompted identity than to any other of the K), the face view's PSNR against
 //! the face crop inside the face mask, face asymmetry (|left − mirrored right| over the mask)
-//! and the floater mass in front of the face (U6's failure).
+//! and the floater mass in front of the face (U6's failure); LPIPS too where the user gives its
+//! weights (`lpips_weights`).
 
 use crate::error::AagError;
 use crate::trainer::{AagTrainer, planar_to_tensor, render_views};
@@ -12,6 +13,7 @@ use burn::tensor::{Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 use splatzoo_train::host_f32;
 use splatzoo_train::loss::{masked_psnr, psnr, scalar, ssim};
+use splatzoo_train::lpips::Lpips;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AagScores {
@@ -24,6 +26,9 @@ pub struct AagScores {
     pub prompt_alignment: f64,
     /// Face view against the face crop, inside the face mask.
     pub face_psnr: f64,
+    /// Held-out LPIPS against the prompted identity, with the user's LPIPS weights
+    /// (`lpips_weights`; none ship).
+    pub lpips: Option<f64>,
     /// Mean |left − mirrored right| over the face mask in the face view (linear RGB).
     pub face_asymmetry: f64,
     /// Σ opacity of Gaussians more than τ in front of the face.
@@ -32,7 +37,8 @@ pub struct AagScores {
 }
 
 impl AagTrainer {
-    pub fn evaluate(&self) -> Result<AagScores, AagError> {
+    /// The scores of the avatar now (LPIPS with `lpips`).
+    pub fn evaluate(&self, lpips: Option<&Lpips>) -> Result<AagScores, AagError> {
         let capture = &self.capture;
         let set = &self.node.set;
         let device = set.means.device();
@@ -43,6 +49,7 @@ impl AagTrainer {
         let prompt = capture.config.prompt;
         let mut per_identity = vec![0.0; k];
         let mut ssim_sum = 0.0;
+        let mut lpips_sum = 0.0;
         let mut aligned = 0usize;
         for (v, render) in renders.iter().enumerate() {
             let image = render.color.clone().clamp(0.0, 1.0).detach();
@@ -60,6 +67,9 @@ impl AagTrainer {
                 *sum += s;
             }
             let target = planar_to_tensor(&capture.eval_targets[prompt][v], size, &device);
+            if let Some(lpips) = lpips {
+                lpips_sum += scalar(lpips.distance(image.clone(), target.clone()));
+            }
             ssim_sum += scalar(ssim(image, target));
         }
         let views = renders.len().max(1) as f64;
@@ -108,6 +118,7 @@ impl AagTrainer {
             psnr_per_identity: per_identity,
             prompt_alignment: aligned as f64 / views,
             face_psnr,
+            lpips: lpips.map(|_| lpips_sum / views),
             face_asymmetry: asymmetry / count.max(1) as f64,
             floater_mass: self
                 .line_of_sight

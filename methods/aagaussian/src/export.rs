@@ -67,7 +67,8 @@ pub fn write_outputs(
         ply.display(),
         set.len()
     ));
-    let scores = trainer.evaluate()?;
+    // LPIPS, where the user gave its weights, is in the harness's final evaluation.
+    let scores = trainer.evaluate(None)?;
     let mut summary = serde_json::Map::new();
     summary.insert(
         "aag".into(),

@@ -335,14 +335,14 @@ impl Method for Aag {
         })
     }
 
-    fn evaluate(&self, _lpips: Option<&Lpips>) -> Result<Evaluation, TrainError> {
-        let scores = self.trainer.evaluate()?;
+    fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError> {
+        let scores = self.trainer.evaluate(lpips)?;
         Ok(Evaluation::new(
             self.trainer.step,
             Scores {
                 psnr: scores.psnr,
                 ssim: scores.ssim,
-                lpips: None,
+                lpips: scores.lpips,
             },
         )
         .with("scores", "held-out views of the prompted identity")

@@ -21,6 +21,7 @@ use splatzoo_aagaussian::config::AagConfig;
 use splatzoo_aagaussian::eval::AagScores;
 use splatzoo_train::TrainError;
 use splatzoo_train::harness::{Method, MethodConfig, arms};
+use splatzoo_train::lpips::Lpips;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -61,14 +62,15 @@ struct Args {
     out: PathBuf,
 }
 
-const HEADER: &str = "arm,seed,psnr,ssim,prompt_alignment,face_psnr,face_asymmetry,\
+const HEADER: &str = "arm,seed,psnr,ssim,lpips,prompt_alignment,face_psnr,face_asymmetry,\
                       floater_mass,gaussians,seconds";
 
 fn csv_row(arm: &str, seed: u64, s: &AagScores, seconds: f64) -> String {
     format!(
-        "{arm},{seed},{:.3},{:.4},{:.3},{:.3},{:.4},{:.3},{},{seconds:.0}",
+        "{arm},{seed},{:.3},{:.4},{},{:.3},{:.3},{:.4},{:.3},{},{seconds:.0}",
         s.psnr,
         s.ssim,
+        s.lpips.map_or(String::new(), |l| format!("{l:.4}")),
         s.prompt_alignment,
         s.face_psnr,
         s.face_asymmetry,
@@ -84,6 +86,11 @@ fn run(args: &Args) -> Result<(), TrainError> {
     let arms = arms::select(&ARMS, &args.arms)?;
     arms::create_dir(&args.out)?;
     let device = base.backend.device();
+    let lpips = base
+        .lpips_weights
+        .as_deref()
+        .map(|path| Lpips::load(path, &device))
+        .transpose()?;
     let mut lines = vec![HEADER.to_owned()];
     for (name, sets) in arms {
         for seed in 0..args.seeds {
@@ -96,7 +103,7 @@ fn run(args: &Args) -> Result<(), TrainError> {
             while method.steps() < config.iterations {
                 method.step()?;
             }
-            let scores = method.trainer.evaluate()?;
+            let scores = method.trainer.evaluate(lpips.as_ref())?;
             let row = csv_row(name, seed, &scores, start.elapsed().as_secs_f64());
             eprintln!("{row}");
             lines.push(row);

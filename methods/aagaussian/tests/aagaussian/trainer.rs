@@ -224,3 +224,53 @@ fn timesteps_anneal_at_their_exact_step() {
     // 12 uniform draws on [20, 980] all at most 100: probability (81/961)^12 < 1e-12.
     assert!(before.iter().any(|&t| t > 100), "{before:?}");
 }
+
+/// The user's LPIPS weights (`lpips_weights`, loaded by the harness) reach the held-out scores:
+/// a random small AlexNet written here gives a finite, positive LPIPS, and leaves PSNR and SSIM
+/// as they are without it.
+#[test]
+fn lpips_weights_reach_the_held_out_scores() {
+    use splatzoo_train::checkpoint::Checkpoint;
+    use splatzoo_train::lpips::Lpips;
+    let device = Backend::Flex.device();
+    let mut rng = Rng(crate_seed() ^ 31);
+    let mut file = Checkpoint::default();
+    // torchvision AlexNet's conv indices and kernels, with few channels.
+    let mut inputs = 3;
+    for (index, outputs, kernel) in [(0, 8, 11), (3, 12, 5), (6, 16, 3), (8, 10, 3), (10, 10, 3)] {
+        let n = outputs * inputs * kernel * kernel;
+        let scale = (2.0 / (inputs * kernel * kernel) as f64).sqrt();
+        let weight: Vec<f32> = (0..n).map(|_| (scale * rng.normal()) as f32).collect();
+        file.put(
+            &format!("features.{index}.weight"),
+            &Tensor::<4>::from_data(
+                TensorData::new(weight, [outputs, inputs, kernel, kernel]),
+                &device,
+            ),
+        );
+        file.put(
+            &format!("features.{index}.bias"),
+            &Tensor::<1>::from_data(TensorData::new(vec![0.01f32; outputs], [outputs]), &device),
+        );
+        inputs = outputs;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("alex.safetensors");
+    file.write(&path).expect("written");
+    let lpips = Lpips::load(&path, &device).expect("loaded");
+    let config = AagConfig {
+        data: PortraitConfig {
+            eval_size: 64,
+            ..tiny_portrait(16)
+        },
+        ..tiny(crate_seed() % 1000 + 5)
+    };
+    let mut method = Aag::new(config, &device).expect("assembles");
+    method.trainer.train_step().expect("a step");
+    let with = method.evaluate(Some(&lpips)).expect("scored").scores;
+    let without = method.evaluate(None).expect("scored").scores;
+    let value = with.lpips.expect("LPIPS with weights");
+    assert!(value.is_finite() && value > 0.0, "{value}");
+    assert_eq!(without.lpips, None);
+    assert_eq!((with.psnr, with.ssim), (without.psnr, without.ssim));
+}
