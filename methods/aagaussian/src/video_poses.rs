@@ -18,7 +18,7 @@ use burn::tensor::Device;
 use splatzoo_datasets::openpose::{PersonKeypoints, keypoint_files, read_main_person};
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_models::body::fit::{
-    BodyFit, FitConfig, Observation, PinholeCamera, TORSO, fit_sequence,
+    BodyFit, FitConfig, Observation, PersonTargets, PinholeCamera, TORSO, fit_sequence,
 };
 use std::path::Path;
 
@@ -51,8 +51,8 @@ impl VideoCamera {
 const OPENPOSE_PIXEL_CENTRE: f32 = 0.5;
 
 /// One frame's keypoints (BODY_25, and the face and hands where the file has them) as
-/// observations of `body`, moved to this crate's pixel centres.
-pub fn observations(body: &AvatarBody, person: &PersonKeypoints) -> Vec<Observation> {
+/// observations of the body `targets` marks, moved to this crate's pixel centres.
+pub fn observations(targets: &PersonTargets, person: &PersonKeypoints) -> Vec<Observation> {
     let centred = |points: &[[f32; 3]]| -> Vec<[f32; 3]> {
         points
             .iter()
@@ -65,7 +65,7 @@ pub fn observations(body: &AvatarBody, person: &PersonKeypoints) -> Vec<Observat
             })
             .collect()
     };
-    body.targets().observations(
+    targets.observations(
         &centred(&person.body),
         &centred(&person.face),
         &centred(&person.left_hand),
@@ -85,11 +85,12 @@ pub fn poses_from_keypoints(
     let dataset = |e| AagError::Train(splatzoo_train::TrainError::Dataset(e));
     let files = keypoint_files(dir).map_err(dataset)?;
     let mut frames = Vec::with_capacity(files.len());
+    let targets = body.targets();
     for file in &files {
         let person = read_main_person(file).map_err(dataset)?.ok_or_else(|| {
             AagError::input(file.display().to_string(), "no person in this frame")
         })?;
-        frames.push(observations(body, &person));
+        frames.push(observations(&targets, &person));
     }
     let model = &body.model;
     let fits = fit_sequence(

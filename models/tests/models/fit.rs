@@ -129,18 +129,29 @@ fn setup(
         .into_iter()
         .flatten()
         .collect();
-    let observations = targets
+    let observations = observed(&camera, &truth, &targets, state);
+    (betas, pose_aa, truth, camera, observations, targets)
+}
+
+/// `targets` on `truth` as `camera` sees them, with 2 px noise (x then y per point) and
+/// confidence 0.9.
+fn observed(
+    camera: &PinholeCamera,
+    truth: &Truth,
+    targets: &[KeypointTarget],
+    state: &mut u64,
+) -> Vec<Observation> {
+    targets
         .iter()
         .map(|&target| {
-            let p = camera.project(point(&truth, target)).expect("in front");
+            let p = camera.project(point(truth, target)).expect("in front");
             Observation {
                 target,
                 pixel: [p[0] + 2.0 * normal(state), p[1] + 2.0 * normal(state)],
                 confidence: 0.9,
             }
         })
-        .collect();
-    (betas, pose_aa, truth, camera, observations, targets)
+        .collect()
 }
 
 /// Height of the shaped body in its rest pose.
@@ -290,19 +301,8 @@ fn hand_keypoints_turn_the_wrists_body25_cannot_see() {
         .copied()
         .collect();
     assert_eq!(hands.len(), 4, "the wrists and middle fingertips");
-    let observe = |targets: &[KeypointTarget], state: &mut u64| -> Vec<Observation> {
-        targets
-            .iter()
-            .map(|&target| {
-                let p = camera.project(point(&truth, target)).expect("in front");
-                Observation {
-                    target,
-                    pixel: [p[0] + 2.0 * normal(state), p[1] + 2.0 * normal(state)],
-                    confidence: 0.9,
-                }
-            })
-            .collect()
-    };
+    let observe =
+        |targets: &[KeypointTarget], state: &mut u64| observed(&camera, &truth, targets, state);
     let body_points: Vec<KeypointTarget> = targets.body.iter().flatten().copied().collect();
     let body_only = observe(&body_points, &mut state);
     let with_hands = [body_only.clone(), observe(&hands, &mut state)].concat();
@@ -445,19 +445,8 @@ fn face_landmarks_steer_the_head() {
         face.iter()
             .all(|t| matches!(t, KeypointTarget::Surface { .. }))
     );
-    let observe = |targets: &[KeypointTarget], state: &mut u64| -> Vec<Observation> {
-        targets
-            .iter()
-            .map(|&target| {
-                let p = camera.project(point(&truth, target)).expect("in front");
-                Observation {
-                    target,
-                    pixel: [p[0] + 2.0 * normal(state), p[1] + 2.0 * normal(state)],
-                    confidence: 0.9,
-                }
-            })
-            .collect()
-    };
+    let observe =
+        |targets: &[KeypointTarget], state: &mut u64| observed(&camera, &truth, targets, state);
     let body_points: Vec<KeypointTarget> = targets.body.iter().flatten().copied().collect();
     let body_only = observe(&body_points, &mut state);
     let with_face = [body_only.clone(), observe(&face, &mut state)].concat();
