@@ -571,6 +571,13 @@ fn train_illum_outputs_read_back_resume_across_processes_and_relight() {
     ] {
         assert!(last.extra["illum"][key].is_number(), "{key}");
     }
+    // Stage 1's F_Δ and F_c and, stage 2 having run, F_vis, F_ao and F_m as ONNX graphs.
+    for (stem, _, _) in splatzoo_illum::onnx::BODY_GRAPHS
+        .into_iter()
+        .chain(splatzoo_illum::onnx::STAGE2_GRAPHS)
+    {
+        assert!(run_dir.join(format!("onnx/{stem}.onnx")).exists(), "{stem}");
+    }
     let scene = read_ply(&run_dir.join("scene.ply"), &Device::flex()).unwrap();
     let human = read_ply(&run_dir.join("human_canonical.ply"), &Device::flex()).unwrap();
     let posed_path = run_dir.join("posed_frame_0002.ply");

@@ -9,11 +9,11 @@
 //!   `albedo_0..2`, `metallic`, `roughness`; normals in `nx ny nz`; zeros on the scene's rows);
 //! - `renders/test_<t>.png`: render | truth | albedo | scene occlusion for each scored
 //!   held-out frame, and `test.gif` of the renders;
-//! - `onnx/`: F_vis, F_ao, F_m's hash encoding and F_m's network with test vectors, checked in
-//!   tract.
+//! - `onnx/`: F_Δ and F_c (their hash encodings and networks), and where stage 2 ran F_vis, F_ao
+//!   and F_m, with test vectors, checked in tract.
 
 use crate::IllumError;
-use crate::onnx::{IllumNetworks, export};
+use crate::onnx::{IllumNetworks, Stage2Networks, export};
 use crate::trainer::IllumTrainer;
 use burn::module::Module;
 use burn::tensor::activation::sigmoid;
@@ -221,32 +221,35 @@ pub fn write_outputs(
         frames.len()
     ));
 
-    if trainer.stage2.is_some() {
-        let visibility = trainer.visibility.valid();
-        let shadow = trainer.decoder.valid();
-        let materials = trainer.materials.valid();
-        let graphs = export(
-            &IllumNetworks {
+    let body = trainer.body.valid();
+    let visibility = trainer.visibility.valid();
+    let shadow = trainer.decoder.valid();
+    let materials = trainer.materials.valid();
+    let graphs = export(
+        &IllumNetworks {
+            body: &body,
+            cube: &trainer.mesh.cube,
+            stage2: trainer.stage2.is_some().then_some(Stage2Networks {
                 visibility: &visibility,
                 shadow: &shadow,
                 materials: &materials,
-                cube: &trainer.mesh.cube,
-            },
-            ONNX_ROWS,
-            &run.join("onnx"),
-            &trainer.device,
-        )
-        .map_err(TrainError::from)?;
-        let worst = graphs
-            .iter()
-            .map(|g| g.relative_error)
-            .fold(0.0f32, f32::max);
-        say.say(&format!(
-            "wrote onnx/ ({} graphs; tract matches Burn to {worst:.1e})",
-            graphs.len()
-        ));
-        summary.insert("onnx_relative_error".into(), f64::from(worst).into());
-    }
+            }),
+        },
+        ONNX_ROWS,
+        &run.join("onnx"),
+        &trainer.device,
+    )
+    .map_err(TrainError::from)?;
+    let worst = graphs
+        .iter()
+        .map(|g| g.relative_error)
+        .fold(0.0f32, f32::max);
+    say.say(&format!(
+        "wrote onnx/ ({} graphs; tract matches Burn to {worst:.1e})",
+        graphs.len()
+    ));
+    summary.insert("onnx_relative_error".into(), f64::from(worst).into());
+
     summary.insert(
         "probes".into(),
         serde_json::json!({

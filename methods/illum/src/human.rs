@@ -16,7 +16,7 @@
 
 use crate::IllumError;
 use burn::module::{Module, Param};
-use burn::tensor::activation::sigmoid;
+use burn::tensor::activation::{relu, sigmoid};
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use splatzoo_models::anchor::{face_frames, subdivide};
 use splatzoo_models::body::{BodyModel, Posed};
@@ -163,14 +163,41 @@ impl RefinedBody {
 
     /// `Δ = F_Δ(v)` `[V, 3]`, each component clamped to `±max_offset·H`.
     pub fn offsets(&self, queries: &HashQueries) -> Tensor<2> {
+        self.offsets_from_code(self.offset.grid.encode_queries(queries))
+    }
+
+    /// The bound `max_offset·H` on each component of Δ (metres).
+    pub fn max_offset(&self) -> f64 {
+        self.max_offset
+    }
+
+    /// F_Δ's network from its hash codes `[R, L·F]` → `[R, 3]` clamped offsets (what
+    /// `offsets.onnx` computes).
+    pub fn offsets_from_code(&self, code: Tensor<2>) -> Tensor<2> {
         self.offset
-            .forward_queries(queries)
+            .forward_code(code)
             .clamp(-self.max_offset, self.max_offset)
+    }
+
+    /// [`Self::offsets_from_code`] as `offsets.onnx` computes it: burn-onnx 0.22 cannot lower
+    /// `clamp`, so the bound is `relu(2m − relu(m − x)) − m`: exactly `±m` beyond the bound
+    /// (no cancellation however large `x`), `x` up to a rounding of `m` inside it (tested
+    /// against the clamp).
+    pub fn offsets_for_export(&self, code: Tensor<2>) -> Tensor<2> {
+        let x = self.offset.forward_code(code);
+        let m = self.max_offset;
+        relu(relu(x.neg() + m).neg() + 2.0 * m) - m
     }
 
     /// `c = F_c(v)` `[V, 3]` in (0, 1).
     pub fn vertex_colours(&self, queries: &HashQueries) -> Tensor<2> {
-        sigmoid(self.colour.forward_queries(queries))
+        self.colours_from_code(self.colour.grid.encode_queries(queries))
+    }
+
+    /// F_c's network from its hash codes `[R, L·F]` → `[R, 3]` in (0, 1) (what `colours.onnx`
+    /// computes).
+    pub fn colours_from_code(&self, code: Tensor<2>) -> Tensor<2> {
+        sigmoid(self.colour.forward_code(code))
     }
 
     /// One Gaussian per face of the posed refined mesh `[V, 3]`: at the barycentre, oriented
