@@ -7,6 +7,8 @@
 //!   6-D;
 //! - [`anchor`]: Gaussians anchored on mesh faces, face frames, subdivision, surface sampling;
 //! - [`normals`]: differentiable area-weighted vertex normals and their f64 reference;
+//! - [`closest_face`]: a point's nearest face of a mesh (barycentrics, distance), beside a
+//!   brute-force loop;
 //! - [`raycast`]: a triangle BVH for shadow and visibility rays, beside a brute-force loop;
 //! - [`laplacian`]: the uniform mesh Laplacian and its smoothness energy;
 //! - [`knn`]: exact k-nearest-neighbour queries over a point cloud (a bucket grid);
@@ -16,6 +18,7 @@
 
 pub mod anchor;
 pub mod body;
+pub mod closest_face;
 pub mod files;
 pub mod knn;
 pub mod laplacian;

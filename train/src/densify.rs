@@ -204,6 +204,8 @@ pub struct DensifyReport {
     pub pruned: usize,
     /// Pairs merged into one (KL density control).
     pub merged: usize,
+    /// Of `pruned`, those farther from the node's mesh than KL density control allows.
+    pub off_surface: usize,
     pub relocated: usize,
     pub added: usize,
 }

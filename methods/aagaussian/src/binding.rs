@@ -6,15 +6,13 @@
 //! each Gaussian also turns with its face frame, `q_i(t) = q(R_f(t) R_f(0)ᵀ) ⊗ q_i`, while
 //! HumanGaussian keeps rotations (and both keep scales).
 //!
-//! Nearest faces come from the faces around the 8 nearest vertices (a grid index), each tested
-//! exactly; [`bind_brute_force`] tests every face and is the reference the tests pair it with.
+//! Nearest faces come from the engine's [`FaceIndex`] (the faces around the 8 nearest vertices,
+//! each tested exactly); [`bind_brute_force`] tests every face and is the reference the tests
+//! pair it with.
 
 use rayon::prelude::*;
-use splatzoo_models::knn::PointIndex;
+use splatzoo_models::closest_face::{FaceIndex, barycentric_point, closest_point_on_triangle};
 use splatzoo_train::gaussians::GaussianRows;
-
-/// Vertices whose incident faces are searched for each Gaussian.
-const NEAREST_VERTICES: usize = 8;
 
 /// Every kept Gaussian's anchor on the canonical mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,61 +27,6 @@ pub struct SurfaceBinding {
     pub culled: usize,
     /// `[F]` each face's canonical frame (columns tangent, bitangent, normal).
     canonical_frames: Vec<[[f64; 3]; 3]>,
-}
-
-/// The closest point of triangle `abc` to `p` as barycentrics `(u, v, w)` on `(a, b, c)`
-/// (Ericson's region test), with its squared distance.
-pub fn closest_point_on_triangle(
-    p: [f64; 3],
-    a: [f64; 3],
-    b: [f64; 3],
-    c: [f64; 3],
-) -> ([f64; 3], f64) {
-    let sub = |x: [f64; 3], y: [f64; 3]| [x[0] - y[0], x[1] - y[1], x[2] - y[2]];
-    let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
-    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
-    let bary = if d1 <= 0.0 && d2 <= 0.0 {
-        [1.0, 0.0, 0.0]
-    } else {
-        let bp = sub(p, b);
-        let (d3, d4) = (dot(ab, bp), dot(ac, bp));
-        let cp = sub(p, c);
-        let (d5, d6) = (dot(ab, cp), dot(ac, cp));
-        let vc = d1 * d4 - d3 * d2;
-        let vb = d5 * d2 - d1 * d6;
-        let va = d3 * d6 - d5 * d4;
-        if d3 >= 0.0 && d4 <= d3 {
-            [0.0, 1.0, 0.0]
-        } else if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-            let v = d1 / (d1 - d3);
-            [1.0 - v, v, 0.0]
-        } else if d6 >= 0.0 && d5 <= d6 {
-            [0.0, 0.0, 1.0]
-        } else if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-            let w = d2 / (d2 - d6);
-            [1.0 - w, 0.0, w]
-        } else if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-            let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-            [0.0, 1.0 - w, w]
-        } else {
-            let denom = va + vb + vc;
-            if denom.abs() < 1e-300 {
-                // A degenerate triangle: its first corner.
-                [1.0, 0.0, 0.0]
-            } else {
-                let (v, w) = (vb / denom, vc / denom);
-                [1.0 - v - w, v, w]
-            }
-        }
-    };
-    let q = combine(bary, a, b, c);
-    let d = sub(p, q);
-    (bary, dot(d, d))
-}
-
-fn combine(bary: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|k| bary[0] * a[k] + bary[1] * b[k] + bary[2] * c[k])
 }
 
 fn corners(vertices: &[[f32; 3]], face: [u32; 3]) -> [[f64; 3]; 3] {
@@ -123,7 +66,7 @@ fn frames(vertices: &[[f32; 3]], faces: &[[u32; 3]]) -> Vec<[[f64; 3]; 3]> {
 /// The anchor of `p` on face `f`: barycentrics, signed normal offset, reconstruction error.
 fn anchor_on(p: [f64; 3], corners: [[f64; 3]; 3], frame: &[[f64; 3]; 3]) -> ([f32; 3], f32, f64) {
     let (bary, _) = closest_point_on_triangle(p, corners[0], corners[1], corners[2]);
-    let q = combine(bary, corners[0], corners[1], corners[2]);
+    let q = barycentric_point(bary, corners[0], corners[1], corners[2]);
     let n = [frame[0][2], frame[1][2], frame[2][2]];
     let d: [f64; 3] = std::array::from_fn(|k| p[k] - q[k]);
     let s = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
@@ -181,26 +124,9 @@ pub fn bind(
     faces: &[[u32; 3]],
     cull_distance: f64,
 ) -> SurfaceBinding {
-    let mut faces_of_vertex = vec![Vec::new(); vertices.len()];
-    for (f, face) in faces.iter().enumerate() {
-        for &v in face {
-            faces_of_vertex[v as usize].push(f);
-        }
-    }
-    let index = PointIndex::new(vertices);
+    let index = FaceIndex::new(vertices, faces);
     assemble(means, vertices, faces, cull_distance, |_, p| {
-        let query = p.map(|x| x as f32);
-        let mut best = (f64::INFINITY, 0);
-        for (v, _) in index.k_nearest(query, NEAREST_VERTICES, None) {
-            for &f in &faces_of_vertex[v] {
-                let [a, b, c] = corners(vertices, faces[f]);
-                let (_, d2) = closest_point_on_triangle(p, a, b, c);
-                if d2 < best.0 {
-                    best = (d2, f);
-                }
-            }
-        }
-        best.1
+        index.nearest(p).map_or(0, |closest| closest.face)
     })
 }
 
@@ -211,16 +137,11 @@ pub fn bind_brute_force(
     faces: &[[u32; 3]],
     cull_distance: f64,
 ) -> SurfaceBinding {
+    let index = FaceIndex::new(vertices, faces);
     assemble(means, vertices, faces, cull_distance, |_, p| {
-        let mut best = (f64::INFINITY, 0);
-        for (f, &face) in faces.iter().enumerate() {
-            let [a, b, c] = corners(vertices, face);
-            let (_, d2) = closest_point_on_triangle(p, a, b, c);
-            if d2 < best.0 {
-                best = (d2, f);
-            }
-        }
-        best.1
+        index
+            .nearest_brute_force(p)
+            .map_or(0, |closest| closest.face)
     })
 }
 
@@ -242,7 +163,7 @@ impl SurfaceBinding {
             let frame = face_frame(c);
             let b = self.barycentric[k].map(f64::from);
             let s = f64::from(self.normal_offset[k]);
-            let q = combine(b, c[0], c[1], c[2]);
+            let q = barycentric_point(b, c[0], c[1], c[2]);
             for a in 0..3 {
                 out.means[3 * k + a] = (q[a] + s * frame[a][2]) as f32;
             }

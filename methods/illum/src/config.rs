@@ -77,6 +77,10 @@ pub struct Stage2Schedule {
     /// Nearest canonical vertices each Gaussian takes its normal, materials and skinning
     /// weights from after density control.
     pub knn: usize,
+    /// GauHuman's prune at each KL decision: a Gaussian whose canonical centre lies farther
+    /// than this × H/1.7 from the refined canonical mesh goes (GauHuman: 0.05; 0 keeps every
+    /// one; only under `densify.strategy = "kl"`).
+    pub mesh_prune_distance: f64,
     /// N_l in training and evaluation (spec: 32 and 64).
     pub samples: usize,
     pub eval_samples: usize,
@@ -117,6 +121,7 @@ impl Default for Stage2Schedule {
             },
             materials_lr: 1e-3,
             knn: 3,
+            mesh_prune_distance: 0.05,
             samples: 16,
             eval_samples: 32,
             rule: HemisphereRule::Midpoint,
@@ -378,6 +383,16 @@ impl MethodConfig for IllumConfig {
             return bad(
                 "stage2.samples/eval_samples",
                 "must be at least 1".to_owned(),
+            );
+        }
+        if !(self.stage2.mesh_prune_distance >= 0.0 && self.stage2.mesh_prune_distance.is_finite())
+        {
+            return bad(
+                "stage2.mesh_prune_distance",
+                format!(
+                    "must be finite and at least 0, got {}",
+                    self.stage2.mesh_prune_distance
+                ),
             );
         }
         if self.stage2.knn == 0 {

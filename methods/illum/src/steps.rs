@@ -495,8 +495,9 @@ impl IllumTrainer {
             let count = stage2.human.gaussians();
             let note = report.map(|r| {
                 format!(
-                    "human density: {} cloned, {} split, {} merged, {} pruned → {count} Gaussians",
-                    r.cloned, r.split, r.merged, r.pruned
+                    "human density: {} cloned, {} split, {} merged, {} pruned ({} off the mesh) \
+                     → {count} Gaussians",
+                    r.cloned, r.split, r.merged, r.pruned, r.off_surface
                 )
             });
             (stage2.human.take_lineage().is_some(), note)

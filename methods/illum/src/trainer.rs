@@ -29,12 +29,15 @@ use burn::tensor::{Device, Int, Tensor, TensorData};
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_models::body::lbs::pose;
 use splatzoo_models::body::{BodyTensors, PoseInput, Posed, builtin_body};
+use splatzoo_models::closest_face::FaceIndex;
 use splatzoo_models::knn::PointIndex;
 use splatzoo_models::laplacian::UniformLaplacian;
 use splatzoo_models::networks::hash_grid::HashQueries;
 use splatzoo_models::networks::hash_mlp::HashMlp;
 use splatzoo_models::networks::initialised;
 use splatzoo_train::adam::{AdamConfig, AdamState};
+use splatzoo_train::densify::kl::{KlDensity, SurfacePrune};
+use splatzoo_train::densify::{DensityStats, Strategy};
 use splatzoo_train::gaussians::{GaussianSet, SH_REST};
 use splatzoo_train::harness::{EpochOrder, ModuleChoice};
 use splatzoo_train::host_f32;
@@ -391,20 +394,51 @@ impl IllumTrainer {
             sh_dc: colour.reshape([n, 1, 3]),
             sh_rest: Tensor::zeros([n, SH_REST, 3], &self.device),
         };
+        let densify = &self.config.stage2.densify;
         let node = GaussianNode::new(
             HUMAN,
             set,
             self.config.stage2.rates,
-            &self.config.stage2.densify,
+            densify,
             self.mesh.height,
             self.config.seed ^ 0x111_0005,
         );
+        let canonical = self.canonical_vertices();
+        let node = match self.surface_prune(&canonical) {
+            Some(surface) => node.with_density(Box::new(KlDensity {
+                config: densify.clone(),
+                stats: DensityStats::new(n, &self.device),
+                extent: self.mesh.height,
+                surface: Some(surface),
+            })),
+            None => node,
+        };
         Stage2State {
             human: node,
             binding,
             offsets: self.frozen_offsets(),
-            canonical: self.canonical_vertices(),
+            canonical,
         }
+    }
+
+    /// GauHuman's distance-to-mesh prune for the stage-2 human under KL density control: the
+    /// refined canonical mesh (`canonical` vertices, the body's faces) and
+    /// `stage2.mesh_prune_distance · H / 1.7`; `None` under another strategy or at distance 0.
+    pub fn surface_prune(&self, canonical: &[[f32; 3]]) -> Option<SurfacePrune> {
+        let distance = self.config.stage2.mesh_prune_distance;
+        (self.config.stage2.densify.strategy == Strategy::Kl && distance > 0.0).then(|| {
+            let faces: Vec<[u32; 3]> = self
+                .mesh
+                .model
+                .faces
+                .chunks_exact(3)
+                .map(|f| [f[0], f[1], f[2]])
+                .collect();
+            SurfacePrune {
+                mesh: FaceIndex::new(canonical, &faces),
+                max_distance: distance * self.mesh.height / 1.7,
+            }
+        })
     }
 
     /// Rebinds the stage-2 human after a density edit: skinning weights and the transfer from

@@ -5,7 +5,9 @@
 //!
 //! At each decision step, with `KL(i) = KL(G_i ‖ G_nn(i))` (the closed form between two 3-D
 //! Gaussians, [`gaussian_kl`]; `nn` by centre distance):
-//! - **prune** when the opacity is below `min_opacity`;
+//! - **prune** when the opacity is below `min_opacity`, or, given the surface the Gaussians
+//!   should tile ([`SurfacePrune`]), when the centre is farther than its `max_distance` from
+//!   that mesh (GauHuman's rule for the body: its SMPL mesh, in the node's frame);
 //! - **merge** `i` with its nearest neighbour when `KL(i) < kl_merge` (each Gaussian merges at
 //!   most once): one Gaussian at the mean of the two centres, with the mean of their
 //!   log-scales, opacity logits and colours and `i`'s rotation (our reading: GauHuman averages
@@ -22,6 +24,7 @@ use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::gaussians::GaussianRows;
 use crate::host_f32 as host;
 use burn::tensor::{Device, Gradients};
+use splatzoo_models::closest_face::FaceIndex;
 use splatzoo_models::knn::PointIndex;
 use splatzoo_rasterizer::Render;
 use std::ops::Range;
@@ -93,12 +96,34 @@ fn nearest(rows: &GaussianRows) -> Vec<usize> {
         .collect()
 }
 
+/// GauHuman's distance-to-mesh prune: the mesh, in the frame of the node's Gaussians, and how
+/// far from it a centre may lie.
+#[derive(Debug, Clone)]
+pub struct SurfacePrune {
+    pub mesh: FaceIndex,
+    pub max_distance: f64,
+}
+
+impl SurfacePrune {
+    /// Whether the centre `p` lies farther than `max_distance` from the mesh (a non-finite
+    /// centre does; a mesh without faces keeps everything).
+    pub fn is_off(&self, p: [f32; 3]) -> bool {
+        if self.mesh.face_count() == 0 {
+            return false;
+        }
+        self.mesh
+            .nearest(p.map(f64::from))
+            .is_none_or(|closest| closest.squared_distance > self.max_distance.powi(2))
+    }
+}
+
 /// One KL decision (module docs); `old_from_new` receives the lineage.
 pub fn kl_density_control(
     config: &DensifyConfig,
     edit: RowEdit<'_>,
     stats: &mut DensityStats,
     extent: f64,
+    surface: Option<&SurfacePrune>,
 ) -> DensifyReport {
     let RowEdit {
         set,
@@ -125,6 +150,11 @@ pub fn kl_density_control(
         if (rows.opacity(i) as f64) < config.min_opacity {
             *dead = true;
             report.pruned += 1;
+        } else if surface.is_some_and(|s| s.is_off(std::array::from_fn(|a| rows.means[3 * i + a])))
+        {
+            *dead = true;
+            report.pruned += 1;
+            report.off_surface += 1;
         }
     }
     for i in 0..n {
@@ -196,6 +226,8 @@ pub struct KlDensity {
     pub config: DensifyConfig,
     pub stats: DensityStats,
     pub extent: f64,
+    /// The distance-to-mesh prune, where the node's owner gives the mesh.
+    pub surface: Option<SurfacePrune>,
 }
 
 impl DensityStrategy for KlDensity {
@@ -208,9 +240,15 @@ impl DensityStrategy for KlDensity {
     }
 
     fn after_step(&mut self, edit: RowEdit<'_>) -> Option<DensifyReport> {
-        self.config
-            .refines_at(edit.step)
-            .then(|| kl_density_control(&self.config, edit, &mut self.stats, self.extent))
+        self.config.refines_at(edit.step).then(|| {
+            kl_density_control(
+                &self.config,
+                edit,
+                &mut self.stats,
+                self.extent,
+                self.surface.as_ref(),
+            )
+        })
     }
 
     fn save(&self, checkpoint: &mut Checkpoint, prefix: &str) {

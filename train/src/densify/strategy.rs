@@ -76,6 +76,7 @@ pub fn strategy(
             config: config.clone(),
             stats: DensityStats::new(rows, device),
             extent,
+            surface: None,
         }),
     }
 }

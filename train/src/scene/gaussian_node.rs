@@ -64,6 +64,14 @@ impl GaussianNode {
     pub fn density(&self) -> &dyn DensityStrategy {
         self.density.as_ref()
     }
+
+    /// The node with another density strategy in place of the one its config named (a strategy
+    /// that needs what only the node's owner has, such as KL density control's mesh for
+    /// [`crate::densify::kl::SurfacePrune`]); before the first step.
+    pub fn with_density(mut self, density: Box<dyn DensityStrategy>) -> Self {
+        self.density = density;
+        self
+    }
 }
 
 impl SceneNode for GaussianNode {

@@ -1,12 +1,14 @@
 //! GauHuman's KL density control: the closed-form divergence against the isotropic formula,
 //! its invariance under a shared rotation and zero on identical Gaussians; a decision merges
 //! a duplicated pair, grows an isolated Gaussian the image pulls on, leaves a redundant one
-//! that the image also pulls on, prunes a transparent one, and records the lineage.
+//! that the image also pulls on, prunes a transparent one, records the lineage, and with the
+//! body's mesh given prunes the Gaussians off it.
 
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::synth::rng::Rng;
+use splatzoo_models::closest_face::FaceIndex;
 use splatzoo_models::rotation_scalar::quaternion_matrix;
-use splatzoo_train::densify::kl::{GaussianShape, gaussian_kl, kl_density_control};
+use splatzoo_train::densify::kl::{GaussianShape, SurfacePrune, gaussian_kl, kl_density_control};
 use splatzoo_train::densify::strategy::RowEdit;
 use splatzoo_train::densify::{DensifyConfig, DensityStats, Strategy};
 use splatzoo_train::gaussians::GaussianSet;
@@ -124,6 +126,7 @@ fn a_decision_merges_twins_grows_the_isolated_and_prunes_the_transparent() {
         },
         &mut stats,
         1.0,
+        None,
     );
     // KL(4 → 5) = ½ · 0.03² / 0.05² = 0.18: between 0.1 and 0.4.
     assert_eq!(report.merged, 1, "{report:?}");
@@ -144,4 +147,60 @@ fn a_decision_merges_twins_grows_the_isolated_and_prunes_the_transparent() {
             "merged colour {merged:?} vs {expected:?}"
         );
     }
+}
+
+/// With the surface given, a decision prunes exactly the centres farther than `max_distance`
+/// from the mesh (above the square, beside it, far off), counted as off the surface, and keeps
+/// those near it; without it (the case above) none goes for its distance.
+#[test]
+fn a_decision_prunes_the_gaussians_off_the_mesh() {
+    let device = Device::flex();
+    // A unit square at z = 0 from two triangles.
+    let vertices = [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    let surface = SurfacePrune {
+        mesh: FaceIndex::new(&vertices, &[[0, 1, 2], [0, 2, 3]]),
+        max_distance: 0.1,
+    };
+    // Kept: on it, 0.09 above it, 0.05 past its edge; pruned: 0.2 above, 0.3 past the corner,
+    // far away.
+    let positions = [
+        [0.5, 0.5, 0.0],
+        [0.2, 0.7, 0.09],
+        [1.05, 0.5, 0.0],
+        [0.5, 0.2, 0.2],
+        [1.3, 1.0, 0.0],
+        [9.0, 9.0, 9.0],
+    ];
+    let mut set = GaussianSet::from_points(&positions, &[[0.5; 3]; 6], &[0.05; 6], &device);
+    let config = DensifyConfig {
+        strategy: Strategy::Kl,
+        // No growth: only the prune acts.
+        grad_threshold: 1e9,
+        ..DensifyConfig::default()
+    };
+    let mut optimizer = GaussianOptimizer::new(&set, LearningRates::default(), 1.0);
+    let mut stats = DensityStats::new(6, &device);
+    let mut lineage = Vec::new();
+    let report = kl_density_control(
+        &config,
+        RowEdit {
+            set: &mut set,
+            optimizer: &mut optimizer,
+            rng: &mut Rng(3),
+            step: 1,
+            progress: 0.0,
+            old_from_new: &mut lineage,
+        },
+        &mut stats,
+        1.0,
+        Some(&surface),
+    );
+    assert_eq!((report.pruned, report.off_surface), (3, 3), "{report:?}");
+    assert_eq!(lineage, vec![0, 1, 2]);
+    assert_eq!(set.len(), 3);
 }

@@ -6,9 +6,7 @@
 use crate::common::tiny_portrait;
 use crate::sds::crate_seed;
 use splatzoo_aagaussian::animate::{AnimationConfig, animate, builtin_motion, driving_pose};
-use splatzoo_aagaussian::binding::{
-    bind, bind_brute_force, closest_point_on_triangle, matrix_quaternion, quaternion_product,
-};
+use splatzoo_aagaussian::binding::{bind, bind_brute_force, matrix_quaternion, quaternion_product};
 use splatzoo_aagaussian::data::{PortraitCapture, studio_lighting};
 use splatzoo_aagaussian::init::knn_scales;
 use splatzoo_datasets::render::Light;
@@ -20,42 +18,6 @@ use splatzoo_train::gaussians::{GaussianRows, GaussianSet};
 
 fn random_point(rng: &mut Rng, scale: f64) -> [f64; 3] {
     [0, 1, 2].map(|_| rng.range(-scale, scale))
-}
-
-/// The closest point is on the triangle and no sampled point of the triangle is closer, on
-/// random and on degenerate (needle, point) triangles.
-#[test]
-fn closest_point_beats_every_sample_of_the_triangle() {
-    let mut rng = Rng(crate_seed());
-    for case in 0..200 {
-        let a = random_point(&mut rng, 1.0);
-        let mut b = random_point(&mut rng, 1.0);
-        let mut c = random_point(&mut rng, 1.0);
-        if case % 10 == 0 {
-            c = [0, 1, 2].map(|k| 0.5 * (a[k] + b[k])); // collinear
-        }
-        if case % 10 == 1 {
-            (b, c) = (a, a); // a point
-        }
-        let p = random_point(&mut rng, 2.0);
-        let (bary, d2) = closest_point_on_triangle(p, a, b, c);
-        assert!(bary.iter().all(|w| *w >= -1e-12), "{bary:?}");
-        assert!((bary.iter().sum::<f64>() - 1.0).abs() < 1e-9);
-        let on = |w: [f64; 3]| -> [f64; 3] {
-            std::array::from_fn(|k| w[0] * a[k] + w[1] * b[k] + w[2] * c[k])
-        };
-        let dist2 = |q: [f64; 3]| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>();
-        assert!((dist2(on(bary)) - d2).abs() < 1e-9);
-        for _ in 0..300 {
-            let (u, v) = (rng.next(), rng.next());
-            let (u, v) = if u + v > 1.0 {
-                (1.0 - u, 1.0 - v)
-            } else {
-                (u, v)
-            };
-            assert!(dist2(on([1.0 - u - v, u, v])) >= d2 - 1e-9);
-        }
-    }
 }
 
 #[test]

@@ -3,7 +3,7 @@
 //! scores every held-out quantity, each Table-4 arm is one `--set` line that runs, and a
 //! schedule that leaves no stage 2 is refused by name.
 
-use burn::tensor::Device;
+use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_illum::config::IllumConfig;
 use splatzoo_illum::data::IllumDataConfig;
 use splatzoo_illum::method::{Illum, IllumArgs};
@@ -201,4 +201,54 @@ fn a_schedule_without_stage_two_is_refused_by_name() {
     bad.light.degree = 4;
     let error = bad.validate().expect_err("refused").to_string();
     assert!(error.contains("light.degree"), "{error}");
+}
+
+/// GauHuman's distance-to-mesh prune (on by default under KL density control): the refined
+/// canonical mesh keeps its own vertices and drops a point a metre off it, at
+/// `mesh_prune_distance · H / 1.7`; distance 0 or another strategy builds none; and in a run,
+/// a Gaussian moved a metre off the body is the one the next decision prunes off the mesh.
+#[test]
+fn the_human_is_pruned_where_it_leaves_the_refined_mesh() {
+    let device = Device::flex();
+    let config = tiny();
+    let mut method = Illum::new(config.clone(), &device).unwrap();
+    let canonical = method.trainer.canonical_vertices();
+    let surface = method
+        .trainer
+        .surface_prune(&canonical)
+        .expect("on by default");
+    let height = method.trainer.mesh.height;
+    assert!((surface.max_distance - 0.05 * height / 1.7).abs() < 1e-12);
+    assert!(canonical.iter().all(|&v| !surface.is_off(v)));
+    assert!(surface.is_off([canonical[0][0], canonical[0][1], canonical[0][2] + 1.0]));
+    for (key, value) in [
+        ("stage2.mesh_prune_distance", "0"),
+        ("stage2.densify.strategy", "\"adc\""),
+    ] {
+        let set = [format!("{key}={value}")];
+        let off: IllumConfig = splatzoo_train::config::load(&config, None, &set).unwrap();
+        let other = Illum::new(off, &device).unwrap();
+        assert!(other.trainer.surface_prune(&canonical).is_none(), "{key}");
+    }
+    let mut bad = config.clone();
+    bad.stage2.mesh_prune_distance = -1.0;
+    let error = bad.validate().expect_err("refused").to_string();
+    assert!(error.contains("stage2.mesh_prune_distance"), "{error}");
+
+    while method.trainer.stage2.is_none() {
+        method.step().unwrap();
+    }
+    let stage2 = method.trainer.stage2.as_mut().unwrap();
+    let n = stage2.human.set.len();
+    let mut means = splatzoo_train::host_f32(&stage2.human.set.means);
+    means[2] += 1.0;
+    stage2.human.set.means = Tensor::from_data(TensorData::new(means, [n, 3]), &device);
+    let note = loop {
+        let report = method.step().unwrap();
+        if let Some(note) = report.note.filter(|n| n.starts_with("human density")) {
+            break note;
+        }
+        assert!(method.steps() < config.iterations, "no density decision");
+    };
+    assert!(note.contains("(1 off the mesh)"), "{note}");
 }
