@@ -6,7 +6,7 @@
 //!   ([`adam`]), the 3DGS per-group optimiser ([`optimizer`]), Adam over network parameters by
 //!   path ([`module_adam`]), density control and its strategies ([`densify`]).
 //! - Objectives and metrics: image losses, plain and masked, and PSNR ([`loss`]), LPIPS
-//!   ([`lpips`]).
+//!   ([`lpips`]), the CLIP score of renders against a prompt ([`clip_score`]).
 //! - Data and files: training views of static scenes ([`views`]), checkpoints
 //!   ([`checkpoint`]), configuration files ([`config`]), backends ([`backend`]), run
 //!   directories ([`run_dir`]), image outputs ([`images`]), INRIA-layout `.ply` ([`ply`]),
@@ -24,6 +24,7 @@ pub mod adam;
 pub mod avatar;
 pub mod backend;
 pub mod checkpoint;
+pub mod clip_score;
 pub mod config;
 pub mod densify;
 mod error;

@@ -116,6 +116,10 @@ pub struct AagConfig {
     pub eval_every: usize,
     pub checkpoint_every: usize,
     pub lpips_weights: Option<PathBuf>,
+    /// The CLIP score's TOML (`splatzoo_train::clip_score`: the user's CLIP image encoder as
+    /// ONNX and the prompt's text embedding); none ships, so held-out views are scored only
+    /// where it is given.
+    pub clip: Option<PathBuf>,
     pub seed: u64,
     pub data: PortraitConfig,
     /// Starting Gaussians \[P: 100 000; C: fewer on a CPU\].
@@ -156,6 +160,7 @@ impl Default for AagConfig {
             eval_every: 400,
             checkpoint_every: 400,
             lpips_weights: None,
+            clip: None,
             seed: 0,
             data: PortraitConfig::default(),
             gaussians: 20_000,

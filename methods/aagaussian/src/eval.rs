@@ -5,12 +5,14 @@
 //! PSNR to the prompted identity than to any other of the K), the face view's PSNR against
 //! the face crop inside the face mask, face asymmetry (|left − mirrored right| over the mask)
 //! and the floater mass in front of the face (U6's failure); LPIPS too where the user gives its
-//! weights (`lpips_weights`).
+//! weights (`lpips_weights`), and the CLIP score of the held-out views against the prompt where
+//! the user gives a CLIP image encoder and the prompt's text embedding (`clip`).
 
 use crate::error::AagError;
 use crate::trainer::{AagTrainer, planar_to_tensor, render_views};
 use burn::tensor::{Tensor, TensorData};
 use serde::{Deserialize, Serialize};
+use splatzoo_train::TrainError;
 use splatzoo_train::host_f32;
 use splatzoo_train::loss::{masked_psnr, psnr, scalar, ssim};
 use splatzoo_train::lpips::Lpips;
@@ -29,6 +31,9 @@ pub struct AagScores {
     /// Held-out LPIPS against the prompted identity, with the user's LPIPS weights
     /// (`lpips_weights`; none ship).
     pub lpips: Option<f64>,
+    /// Mean CLIP score (`100 · max(cos, 0)`) of the held-out views against the prompt, with the
+    /// user's CLIP (`clip`; none ships).
+    pub clip_score: Option<f64>,
     /// Mean |left − mirrored right| over the face mask in the face view (linear RGB).
     pub face_asymmetry: f64,
     /// Σ opacity of Gaussians more than τ in front of the face.
@@ -50,6 +55,7 @@ impl AagTrainer {
         let mut per_identity = vec![0.0; k];
         let mut ssim_sum = 0.0;
         let mut lpips_sum = 0.0;
+        let mut clip_sum = 0.0;
         let mut aligned = 0usize;
         for (v, render) in renders.iter().enumerate() {
             let image = render.color.clone().clamp(0.0, 1.0).detach();
@@ -67,6 +73,9 @@ impl AagTrainer {
                 *sum += s;
             }
             let target = planar_to_tensor(&capture.eval_targets[prompt][v], size, &device);
+            if let Some(clip) = &self.clip {
+                clip_sum += clip.score(image.clone()).map_err(TrainError::from)?;
+            }
             if let Some(lpips) = lpips {
                 lpips_sum += scalar(lpips.distance(image.clone(), target.clone()));
             }
@@ -119,6 +128,7 @@ impl AagTrainer {
             prompt_alignment: aligned as f64 / views,
             face_psnr,
             lpips: lpips.map(|_| lpips_sum / views),
+            clip_score: self.clip.as_ref().map(|_| clip_sum / views),
             face_asymmetry: asymmetry / count.max(1) as f64,
             floater_mass: self
                 .line_of_sight

@@ -16,6 +16,7 @@ use splatzoo_models::networks::vae::{VaeConfig, VaeEncoder};
 use splatzoo_models::networks::weights::WeightFile;
 use splatzoo_train::TrainError;
 use splatzoo_train::checkpoint::Checkpoint;
+use splatzoo_train::clip_score::ClipScorer;
 use splatzoo_train::harness::{
     Evaluation, Method, ModuleChoice, Say, Scores, StepReport, read_back,
 };
@@ -144,8 +145,13 @@ impl Aag {
             )?),
             None => None,
         };
+        let clip = match &config.clip {
+            Some(path) => Some(ClipScorer::load(path).map_err(TrainError::from)?),
+            None => None,
+        };
         let mut trainer = AagTrainer::new(config, capture, model, &device.clone());
         trainer.vae = vae;
+        trainer.clip = clip;
         Ok(Self { trainer, decisions })
     }
 }

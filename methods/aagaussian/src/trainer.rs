@@ -18,6 +18,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_models::networks::vae::VaeEncoder;
 use splatzoo_rasterizer::{Camera, ColorMode, RasterSettings, Render, Splats, rasterize};
+use splatzoo_train::clip_score::ClipScorer;
 use splatzoo_train::densify::DensifyReport;
 use splatzoo_train::host_f32;
 use splatzoo_train::scene::{GaussianNode, SceneNode, StepEnd};
@@ -50,6 +51,8 @@ pub struct AagTrainer {
     pub line_of_sight: LineOfSight,
     /// The latent encoder of a latent-space guidance model (`None`: pixel space).
     pub vae: Option<VaeEncoder>,
+    /// The CLIP scorer of the held-out views, where `clip` is given.
+    pub clip: Option<ClipScorer>,
     face_weights: Vec<f32>,
     /// `[S, S, 3]` the face crop.
     face_crop: Tensor<3>,
@@ -137,6 +140,7 @@ impl AagTrainer {
         let face_crop = planar_to_tensor(&capture.face_crop, size, device);
         Self {
             vae: None,
+            clip: None,
             face_weights: centre_weights(size, config.face.kappa),
             rng: Rng(config.seed.wrapping_mul(0x9E37_79B9).wrapping_add(17)),
             config,

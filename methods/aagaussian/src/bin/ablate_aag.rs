@@ -62,15 +62,16 @@ struct Args {
     out: PathBuf,
 }
 
-const HEADER: &str = "arm,seed,psnr,ssim,lpips,prompt_alignment,face_psnr,face_asymmetry,\
-                      floater_mass,gaussians,seconds";
+const HEADER: &str = "arm,seed,psnr,ssim,lpips,clip_score,prompt_alignment,face_psnr,\
+                      face_asymmetry,floater_mass,gaussians,seconds";
 
 fn csv_row(arm: &str, seed: u64, s: &AagScores, seconds: f64) -> String {
     format!(
-        "{arm},{seed},{:.3},{:.4},{},{:.3},{:.3},{:.4},{:.3},{},{seconds:.0}",
+        "{arm},{seed},{:.3},{:.4},{},{},{:.3},{:.3},{:.4},{:.3},{},{seconds:.0}",
         s.psnr,
         s.ssim,
         s.lpips.map_or(String::new(), |l| format!("{l:.4}")),
+        s.clip_score.map_or(String::new(), |c| format!("{c:.2}")),
         s.prompt_alignment,
         s.face_psnr,
         s.face_asymmetry,

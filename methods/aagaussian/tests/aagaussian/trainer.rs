@@ -274,3 +274,61 @@ fn lpips_weights_reach_the_held_out_scores() {
     assert_eq!(without.lpips, None);
     assert_eq!((with.psnr, with.ssim), (without.psnr, without.ssim));
 }
+
+/// The user's CLIP (`clip`: an image encoder as ONNX and the prompt's text embedding; here the
+/// engine's random stand-in) scores the held-out views: the mean of the scorer over the same
+/// renders, in [0, 100]; without it there is no CLIP score and the other scores are unchanged.
+#[test]
+fn a_user_clip_scores_the_held_out_views() {
+    use splatzoo_aagaussian::trainer::render_views;
+    use splatzoo_train::clip_score::fixture::write_tiny_clip;
+    let device = Backend::Flex.device();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let text: Vec<f32> = (0..6).map(|k| 0.2 + (k as f32).cos()).collect();
+    let (toml, _) = write_tiny_clip(dir.path(), 24, &text, &device).expect("written");
+    let base = AagConfig {
+        data: PortraitConfig {
+            eval_size: 32,
+            ..tiny_portrait(16)
+        },
+        ..tiny(crate_seed() % 1000 + 7)
+    };
+    let mut method = Aag::new(
+        AagConfig {
+            clip: Some(toml),
+            ..base.clone()
+        },
+        &device,
+    )
+    .expect("assembles");
+    method.trainer.train_step().expect("a step");
+    let with = method.trainer.evaluate(None).expect("scored");
+    let clip = method.trainer.clip.as_ref().expect("loaded");
+    let renders = render_views(
+        &method.trainer.node.set.splats(),
+        &method.trainer.capture.eval_cameras,
+    )
+    .expect("rendered");
+    let mean = renders
+        .iter()
+        .map(|r| clip.score(r.color.clone().clamp(0.0, 1.0)).expect("scored"))
+        .sum::<f64>()
+        / renders.len() as f64;
+    let value = with.clip_score.expect("a CLIP score");
+    assert!((value - mean).abs() < 1e-9, "{value} against {mean}");
+    assert!((0.0..=100.0).contains(&value));
+    method.trainer.clip = None;
+    let without = method.trainer.evaluate(None).expect("scored");
+    assert_eq!(without.clip_score, None);
+    assert_eq!((with.psnr, with.ssim), (without.psnr, without.ssim));
+
+    let missing = AagConfig {
+        clip: Some(dir.path().join("absent.toml")),
+        ..base
+    };
+    let error = Aag::new(missing, &device)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(error.contains("absent.toml"), "{error}");
+}
