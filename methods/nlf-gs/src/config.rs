@@ -20,6 +20,21 @@ pub enum Supervision {
     Targets,
 }
 
+/// Where the subjects come from: the synthetic generator (the default), or a real capture's
+/// split folders ([`crate::capture`]: THuman2.0 in GHG's layout, `THuman/train` and
+/// `THuman/val`) with the body model its fits are for.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NlfData {
+    /// Training subjects (the first `train_subjects` with a body fit).
+    pub train: Option<PathBuf>,
+    /// Held-out subjects (the first `test_subjects`).
+    pub test: Option<PathBuf>,
+    /// SMPL / SMPL-H / SMPL-X `.npz` or `.pkl` the capture's fits are for (THuman2.0: SMPL-X);
+    /// without it the built-in body takes the fits' body joints.
+    pub body_model: Option<PathBuf>,
+}
+
 /// Everything `train-nlf` reads from its TOML configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -50,6 +65,7 @@ pub struct NlfTrainConfig {
     pub supervision: Supervision,
     pub network: NlfConfig,
     pub loss: NlfLossWeights,
+    pub data: NlfData,
 }
 
 impl Default for NlfTrainConfig {
@@ -71,6 +87,7 @@ impl Default for NlfTrainConfig {
             supervision: Supervision::Inputs,
             network: NlfConfig::default(),
             loss: NlfLossWeights::default(),
+            data: NlfData::default(),
         }
     }
 }
@@ -94,6 +111,15 @@ impl MethodConfig for NlfTrainConfig {
         }
         if self.network.gaussians_per_face == 0 {
             return bad("network.gaussians_per_face must be ≥ 1".into());
+        }
+        let d = &self.data;
+        if d.train.is_some() != d.test.is_some() {
+            return bad("data.train and data.test name a capture's two splits: give both".into());
+        }
+        if d.body_model.is_some() && d.train.is_none() {
+            return bad(
+                "data.body_model poses a capture's fits: set data.train and data.test".into(),
+            );
         }
         Ok(())
     }

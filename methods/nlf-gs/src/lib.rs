@@ -31,6 +31,7 @@
 //! figures and every choice the paper leaves open.
 
 pub mod baseline;
+pub mod capture;
 pub mod config;
 pub mod data;
 pub mod decoder;

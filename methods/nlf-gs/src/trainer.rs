@@ -10,6 +10,7 @@
 
 use crate::NlfError;
 use crate::baseline::mean_colour_avatar;
+use crate::capture::capture_subjects;
 use crate::config::{NlfTrainConfig, Supervision};
 use crate::data::{NlfSubject, NlfView, posed_splats};
 use crate::loss::{NlfLossInputs, nlf_loss};
@@ -20,7 +21,7 @@ use crate::query::Views;
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 use splatzoo_models::anchor::MeshAnchors;
-use splatzoo_models::body::builtin_body;
+use splatzoo_models::body::{builtin_body, load_body_model};
 use splatzoo_models::networks::weights::{WeightFile, load_module, module_tensors};
 use splatzoo_rasterizer::{ColorMode, RasterSettings, Render};
 use splatzoo_train::TrainError;
@@ -59,6 +60,8 @@ pub struct NlfTrainer {
     pub test: Vec<NlfSubject>,
     pub faces: Vec<u32>,
     pub anchors: MeshAnchors,
+    /// Where the subjects came from (a real capture's conversion notes).
+    decisions: Vec<String>,
 }
 
 impl NlfTrainer {
@@ -68,16 +71,51 @@ impl NlfTrainer {
         optimizer: ModuleAdam,
         step: usize,
         device: &Device,
-    ) -> Self {
-        let train = (0..config.train_subjects as u64)
-            .map(|s| NlfSubject::synthetic(s, config.size, device))
-            .collect();
-        let test = (0..config.test_subjects as u64)
-            .map(|s| NlfSubject::synthetic(config.test_seed + s, config.size, device))
-            .collect();
-        let faces = builtin_body().model.faces.clone();
+    ) -> Result<Self, TrainError> {
+        let (train, test, faces, decisions) = match (&config.data.train, &config.data.test) {
+            (Some(train_dir), Some(test_dir)) => {
+                let body = match &config.data.body_model {
+                    Some(path) => load_body_model(path)?,
+                    None => builtin_body().model.clone(),
+                };
+                let load = |dir: &Path, limit: usize| {
+                    let dataset = splatzoo_datasets::formats::load(dir, None)?;
+                    capture_subjects(&dataset, &body, config.size, limit, device)
+                };
+                let (train, mut notes) = load(train_dir, config.train_subjects)?;
+                let (test, test_notes) = load(test_dir, config.test_subjects)?;
+                notes.extend(test_notes);
+                notes.dedup();
+                notes.insert(
+                    0,
+                    format!(
+                        "subjects: {} training from {}, {} held out from {}, on the {} ({} \
+                         vertices)",
+                        train.len(),
+                        train_dir.display(),
+                        test.len(),
+                        test_dir.display(),
+                        config.data.body_model.as_ref().map_or_else(
+                            || "built-in body".to_owned(),
+                            |p| format!("body model {}", p.display())
+                        ),
+                        body.vertex_count()
+                    ),
+                );
+                (train, test, body.faces.clone(), notes)
+            }
+            _ => {
+                let train = (0..config.train_subjects as u64)
+                    .map(|s| NlfSubject::synthetic(s, config.size, device))
+                    .collect();
+                let test = (0..config.test_subjects as u64)
+                    .map(|s| NlfSubject::synthetic(config.test_seed + s, config.size, device))
+                    .collect();
+                (train, test, builtin_body().model.faces.clone(), Vec::new())
+            }
+        };
         let anchors = MeshAnchors::per_face(faces.len() / 3, config.network.gaussians_per_face);
-        Self {
+        Ok(Self {
             config,
             model,
             optimizer,
@@ -86,7 +124,8 @@ impl NlfTrainer {
             test,
             faces,
             anchors,
-        }
+            decisions,
+        })
     }
 
     /// The network without autodiff, for evaluation and export.
@@ -221,13 +260,7 @@ impl Method for NlfTrainer {
             model.encoder.load_backbone(&WeightFile::read(path)?)?;
         }
         let model = model.train();
-        Ok(Self::with_model(
-            config,
-            model,
-            ModuleAdam::new(NETWORK_ADAM),
-            0,
-            device,
-        ))
+        Self::with_model(config, model, ModuleAdam::new(NETWORK_ADAM), 0, device)
     }
 
     /// Continues from `checkpoint` (network, Adam moments, step) with `config`, which may
@@ -248,11 +281,15 @@ impl Method for NlfTrainer {
         let file = WeightFile::new(checkpoint.origin.clone(), checkpoint.tensors.clone());
         let model = load_module(NlfGs::new(&config.network, device), &file)?.train();
         let optimizer = ModuleAdam::load(NETWORK_ADAM, &model, checkpoint)?;
-        Ok(Self::with_model(config, model, optimizer, step, device))
+        Self::with_model(config, model, optimizer, step, device)
     }
 
     fn steps(&self) -> usize {
         self.step
+    }
+
+    fn decisions(&self) -> Vec<String> {
+        self.decisions.clone()
     }
 
     /// The avatar has no optional scene module (a person over a plain background, decoded

@@ -1,7 +1,8 @@
 //! NLF-GS's integration tests, one binary: the feature query and fusion (Eq. 2–4), the
-//! generator and driver, the objective (Eq. 5–7), the ONNX export and the train-nlf and
-//! drive-nlf commands.
+//! generator and driver, the objective (Eq. 5–7), the ONNX export, subjects from a real capture's
+//! layout and the train-nlf and drive-nlf commands.
 
+mod capture;
 mod cli;
 mod extremes;
 mod loss;
