@@ -1,6 +1,7 @@
 //! `drive-nlf`: generates an avatar with a trained NLF-GS network (a `train-nlf` checkpoint,
-//! its format checked) from the three input views of a synthetic identity, at the resolution it
-//! was trained at, then drives it with a pose sequence (an AMASS `.npz` via `--poses`, z-up and
+//! its format checked) from the three input views of a synthetic identity (or, for a network
+//! trained on a capture, of a held-out subject of it, on the capture's body model), at the
+//! resolution it was trained at, then drives it with a pose sequence (an AMASS `.npz` via `--poses`, z-up and
 //! turned to the body's y-up unless `--up y`; or a built-in walk in place) and writes PNG frames
 //! and a GIF, rendered from the 60° camera (front three-quarter, a view the inputs do not
 //! have). The printed driving rate covers posing, re-anchoring, rasterizing and reading the
@@ -15,9 +16,10 @@ use clap::Parser;
 use splatzoo_datasets::pose_sequence::{PoseSequence, UpAxis, load_driving_sequence};
 use splatzoo_datasets::synth::motion::{Motion, Start, generate};
 use splatzoo_models::anchor::MeshAnchors;
-use splatzoo_models::body::builtin_body;
 use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
+use splatzoo_models::body::{builtin_body, load_body_model};
 use splatzoo_models::networks::weights::{WeightFile, load_module};
+use splatzoo_nlf_gs::capture::capture_subjects;
 use splatzoo_nlf_gs::data::{NlfSubject, posed_splats};
 use splatzoo_nlf_gs::network::NlfGs;
 use splatzoo_nlf_gs::trainer::NlfTrainer;
@@ -36,7 +38,9 @@ use std::time::Instant;
 struct Args {
     #[arg(long)]
     checkpoint: PathBuf,
-    /// The synthetic identity whose input views generate the avatar.
+    /// The identity whose input views generate the avatar: a synthetic seed, or, for a network
+    /// trained on a capture (`data.test`), its held-out subjects numbered from `test_seed`
+    /// (the default is the first).
     #[arg(long, default_value_t = 10_000)]
     subject: u64,
     /// AMASS-layout pose sequence (`poses`, `trans`, `betas`); the identity's shape is kept.
@@ -69,8 +73,37 @@ fn run(args: Args) -> Result<(), TrainError> {
     let device = args.backend.device();
     let file = WeightFile::read(&args.checkpoint)?;
     let model = load_module(NlfGs::new(network, &device), &file)?;
-    let subject = NlfSubject::synthetic(args.subject, size, &device);
-    let body = &builtin_body().model;
+    let (subject, body) = match &config.data.test {
+        // A capture-trained network drives a held-out subject of its capture, on its body.
+        Some(test) => {
+            let body = match &config.data.body_model {
+                Some(path) => load_body_model(path)?,
+                None => builtin_body().model.clone(),
+            };
+            let index = args
+                .subject
+                .checked_sub(config.test_seed)
+                .unwrap_or(u64::MAX) as usize;
+            let dataset = splatzoo_datasets::formats::load(test, None)?;
+            let (mut subjects, _) =
+                capture_subjects(&dataset, &body, size, index.saturating_add(1), &device)?;
+            if index >= subjects.len() {
+                return Err(TrainError::Config(format!(
+                    "--subject {}: {} has {} subject(s) with a fit, numbered from test_seed {}",
+                    args.subject,
+                    test.display(),
+                    subjects.len(),
+                    config.test_seed
+                )));
+            }
+            (subjects.swap_remove(index), body)
+        }
+        None => (
+            NlfSubject::synthetic(args.subject, size, &device),
+            builtin_body().model.clone(),
+        ),
+    };
+    let body = &body;
     let faces = body.faces.clone();
     let anchors = MeshAnchors::per_face(faces.len() / 3, network.gaussians_per_face);
     let inputs = subject.nlf_inputs(&faces, &anchors);

@@ -198,3 +198,55 @@ fn train_nlf_runs_end_to_end_with_its_baselines() {
         text(&bad)
     );
 }
+
+/// `train-nlf` on a THuman2.0 layout (the datasets crate's GHG fixture) and `drive-nlf` on its
+/// checkpoint: the held-out subject of the capture is driven, and a subject the capture does not
+/// have is refused by name.
+#[test]
+fn train_and_drive_nlf_on_a_capture() {
+    use splatzoo_datasets::fixtures::{ghg_fit, ghg_subject};
+    let dir = tempfile::tempdir().unwrap();
+    let thuman = dir.path().join("THuman");
+    let positions = [0, 3, 6, 8, 11, 13];
+    for (split, subject) in [("train", "0004"), ("train", "0007"), ("val", "0011")] {
+        ghg_subject(&thuman.join(split), subject, &positions, 1);
+        ghg_fit(&thuman, subject);
+    }
+    let run = train_nlf(
+        dir.path(),
+        "thuman",
+        &[
+            "--set",
+            "data.train=\"THuman/train\"",
+            "--set",
+            "data.test=\"THuman/val\"",
+            "--set",
+            "onnx=false",
+        ],
+    );
+    assert!(run.status.success(), "{}", text(&run));
+    assert!(
+        text(&run).contains("subjects: 2 training"),
+        "{}",
+        text(&run)
+    );
+    let checkpoint = dir.path().join("runs/nlf/thuman/checkpoint.safetensors");
+    let drive = |subject: &str| {
+        Command::new(env!("CARGO_BIN_EXE_drive-nlf"))
+            .args(["--checkpoint", checkpoint.to_str().unwrap()])
+            .args(["--subject", subject, "--frames", "2", "--out", "drive"])
+            .current_dir(dir.path())
+            .output()
+            .unwrap()
+    };
+    let driven = drive("10000");
+    assert!(driven.status.success(), "{}", text(&driven));
+    assert!(dir.path().join("drive/drive.gif").exists());
+    let absent = drive("10001");
+    assert!(!absent.status.success());
+    assert!(
+        text(&absent).contains("1 subject(s) with a fit"),
+        "{}",
+        text(&absent)
+    );
+}
