@@ -10,7 +10,7 @@ use splatzoo_models::closest_face::FaceIndex;
 use splatzoo_models::rotation_scalar::quaternion_matrix;
 use splatzoo_train::densify::kl::{GaussianShape, SurfacePrune, gaussian_kl, kl_density_control};
 use splatzoo_train::densify::strategy::RowEdit;
-use splatzoo_train::densify::{DensifyConfig, DensityStats, Strategy};
+use splatzoo_train::densify::{DensifyConfig, DensifyReport, DensityStats, Strategy};
 use splatzoo_train::gaussians::GaussianSet;
 use splatzoo_train::optimizer::{GaussianOptimizer, LearningRates};
 
@@ -78,6 +78,37 @@ fn the_divergence_matches_its_isotropic_form_and_ignores_a_shared_rotation() {
     assert!(kl.is_finite() && kl > 1e6, "{kl}");
 }
 
+/// One KL decision on `set` (extent 1) with every Gaussian pulled on by the image (a mean
+/// screen gradient of 1); the report and the lineage.
+fn decide(
+    config: &DensifyConfig,
+    set: &mut GaussianSet,
+    surface: Option<&SurfacePrune>,
+) -> (DensifyReport, Vec<usize>) {
+    let device = set.means.device();
+    let n = set.len();
+    let mut optimizer = GaussianOptimizer::new(set, LearningRates::default(), 1.0);
+    let mut stats = DensityStats::new(n, &device);
+    stats.grad_sum = Tensor::full([n], 1.0, &device);
+    stats.count = Tensor::full([n], 1.0, &device);
+    let mut lineage = Vec::new();
+    let report = kl_density_control(
+        config,
+        RowEdit {
+            set,
+            optimizer: &mut optimizer,
+            rng: &mut Rng(3),
+            step: 1,
+            progress: 0.0,
+            old_from_new: &mut lineage,
+        },
+        &mut stats,
+        1.0,
+        surface,
+    );
+    (report, lineage)
+}
+
 #[test]
 fn a_decision_merges_twins_grows_the_isolated_and_prunes_the_transparent() {
     let device = Device::flex();
@@ -108,26 +139,7 @@ fn a_decision_merges_twins_grows_the_isolated_and_prunes_the_transparent() {
         percent_dense: 0.1,
         ..DensifyConfig::default()
     };
-    let mut optimizer = GaussianOptimizer::new(&set, LearningRates::default(), 1.0);
-    let mut stats = DensityStats::new(6, &device);
-    // Every Gaussian is pulled on by the image.
-    stats.grad_sum = Tensor::full([6], 1.0, &device);
-    stats.count = Tensor::full([6], 1.0, &device);
-    let mut lineage = Vec::new();
-    let report = kl_density_control(
-        &config,
-        RowEdit {
-            set: &mut set,
-            optimizer: &mut optimizer,
-            rng: &mut Rng(3),
-            step: 1,
-            progress: 0.0,
-            old_from_new: &mut lineage,
-        },
-        &mut stats,
-        1.0,
-        None,
-    );
+    let (report, lineage) = decide(&config, &mut set, None);
     // KL(4 → 5) = ½ · 0.03² / 0.05² = 0.18: between 0.1 and 0.4.
     assert_eq!(report.merged, 1, "{report:?}");
     assert_eq!(report.pruned, 1, "{report:?}");
@@ -183,23 +195,7 @@ fn a_decision_prunes_the_gaussians_off_the_mesh() {
         grad_threshold: 1e9,
         ..DensifyConfig::default()
     };
-    let mut optimizer = GaussianOptimizer::new(&set, LearningRates::default(), 1.0);
-    let mut stats = DensityStats::new(6, &device);
-    let mut lineage = Vec::new();
-    let report = kl_density_control(
-        &config,
-        RowEdit {
-            set: &mut set,
-            optimizer: &mut optimizer,
-            rng: &mut Rng(3),
-            step: 1,
-            progress: 0.0,
-            old_from_new: &mut lineage,
-        },
-        &mut stats,
-        1.0,
-        Some(&surface),
-    );
+    let (report, lineage) = decide(&config, &mut set, Some(&surface));
     assert_eq!((report.pruned, report.off_surface), (3, 3), "{report:?}");
     assert_eq!(lineage, vec![0, 1, 2]);
     assert_eq!(set.len(), 3);
