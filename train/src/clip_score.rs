@@ -245,10 +245,11 @@ impl ClipScorer {
     }
 }
 
-/// A stand-in CLIP for tests (no real weights ship): a random small convolutional image encoder
-/// (3×3 convolution, stride 2, 4 channels, ReLU, one linear layer to `dim`) exported to ONNX,
-/// a text embedding, and the TOML naming both, written into `dir`; returns the TOML's path and
-/// the encoder, whose [`TinyImageEncoder::forward`] is the graph's Burn twin.
+/// A stand-in CLIP for tests (no real weights ship): [`fixture::write_tiny_clip`] writes a
+/// random small convolutional image encoder (3×3 convolution, stride 2, 4 channels, ReLU, one
+/// linear layer to the embedding's width) exported to ONNX, a text embedding, and the TOML
+/// naming both, and returns the TOML's path and the encoder, whose
+/// [`fixture::TinyImageEncoder::forward`] is the graph's Burn twin.
 pub mod fixture {
     use super::TEXT_EMBEDDING;
     use crate::checkpoint::Checkpoint;
