@@ -7,11 +7,11 @@
 use crate::common::values;
 use burn::tensor::{Tensor, TensorData};
 use splatzoo_models::body::fit::{
-    FitConfig, Hand, KeypointTarget, Observation, PersonTargets, PinholeCamera, TORSO,
+    BodyFit, FitConfig, Hand, KeypointTarget, Observation, PersonTargets, PinholeCamera, TORSO,
     body25_targets, fit_body, foot_targets, hand21_targets,
 };
 use splatzoo_models::body::lbs::{BodyTensors, PoseInput, pose};
-use splatzoo_models::body::{FaceLandmark, builtin_body};
+use splatzoo_models::body::{BodyModel, FaceLandmark, builtin_body};
 
 /// A pinhole looking from `eye` at `target` with +y up (image y down), `size`² pixels.
 fn look_at(eye: [f64; 3], target: [f64; 3], fov_degrees: f64, size: f64) -> PinholeCamera {
@@ -170,6 +170,20 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 /// Fit errors of one case: reprojection (px), MPJPE over the 22 body joints (m), relative
 /// height error, largest bone-length error (m).
+/// `observations` fitted on `model` through `camera` from the torso's start, and the fitted
+/// body posed.
+fn fit_posed(
+    model: &BodyModel,
+    observations: &[Observation],
+    camera: &PinholeCamera,
+    config: &FitConfig,
+) -> (BodyFit, Truth) {
+    let device = burn::tensor::Device::flex();
+    let fit = fit_body(model, observations, camera, &TORSO, config, None, &device).expect("fits");
+    let fitted = posed(&fit.betas, &fit.pose, fit.translation);
+    (fit, fitted)
+}
+
 fn fit_case(seed: u64) -> (f64, f64, f64, f64) {
     let mut state = seed;
     let (betas, _, truth, camera, observations, _) = setup(&mut state);
@@ -185,18 +199,7 @@ fn fit_case(seed: u64) -> (f64, f64, f64, f64) {
         feet,
         ..FitConfig::default()
     };
-    let device = burn::tensor::Device::flex();
-    let fit = fit_body(
-        &body.model,
-        &observations,
-        &camera,
-        &TORSO,
-        &config,
-        None,
-        &device,
-    )
-    .expect("fits");
-    let fitted = posed(&fit.betas, &fit.pose, fit.translation);
+    let (fit, fitted) = fit_posed(&body.model, &observations, &camera, &config);
     let mpjpe = (0..22)
         .map(|j| distance(fitted.joints[j], truth.joints[j]))
         .sum::<f64>()
@@ -306,7 +309,6 @@ fn hand_keypoints_turn_the_wrists_body25_cannot_see() {
     let body_points: Vec<KeypointTarget> = targets.body.iter().flatten().copied().collect();
     let body_only = observe(&body_points, &mut state);
     let with_hands = [body_only.clone(), observe(&hands, &mut state)].concat();
-    let device = burn::tensor::Device::flex();
     let tips = ["left_fingertip", "right_fingertip"].map(|n| body.landmark(n).expect("tip"));
     let direction = |t: &Truth, hand: usize| {
         let (wrist, tip) = (t.joints[20 + hand], t.vertices[tips[hand] as usize]);
@@ -315,17 +317,7 @@ fn hand_keypoints_turn_the_wrists_body25_cannot_see() {
         d.map(|x| x / n)
     };
     let worst_angle = |observations: &[Observation]| -> f64 {
-        let fit = fit_body(
-            &body.model,
-            observations,
-            &camera,
-            &TORSO,
-            &FitConfig::default(),
-            None,
-            &device,
-        )
-        .expect("fits");
-        let fitted = posed(&fit.betas, &fit.pose, fit.translation);
+        let (_, fitted) = fit_posed(&body.model, observations, &camera, &FitConfig::default());
         (0..2)
             .map(|hand| {
                 let (a, b) = (direction(&fitted, hand), direction(&truth, hand));
@@ -450,19 +442,8 @@ fn face_landmarks_steer_the_head() {
     let body_points: Vec<KeypointTarget> = targets.body.iter().flatten().copied().collect();
     let body_only = observe(&body_points, &mut state);
     let with_face = [body_only.clone(), observe(&face, &mut state)].concat();
-    let device = burn::tensor::Device::flex();
     let face_error = |observations: &[Observation]| -> (f64, f64) {
-        let fit = fit_body(
-            &model,
-            observations,
-            &camera,
-            &TORSO,
-            &FitConfig::default(),
-            None,
-            &device,
-        )
-        .expect("fits");
-        let fitted = posed(&fit.betas, &fit.pose, fit.translation);
+        let (fit, fitted) = fit_posed(&model, observations, &camera, &FitConfig::default());
         let error = face
             .iter()
             .map(|&t| {
