@@ -142,23 +142,25 @@ pub fn capture_subjects(
         .map(|f| [f[0], f[1], f[2]])
         .collect();
     let mut subjects = Vec::new();
-    let mut notes = Vec::new();
     // GHG gives each subject its own track, valid at its own frame.
-    let mut frames = Vec::new();
-    for person in 0..dataset.people.len() {
-        let people = person_sequence(dataset, person, model, true)?;
-        frames.extend(
+    let tracks = (0..dataset.people.len())
+        .map(|person| person_sequence(dataset, person, model, true))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut frames: Vec<(usize, usize)> = tracks
+        .iter()
+        .enumerate()
+        .flat_map(|(person, track)| {
             (0..dataset.frame_count)
-                .filter(|&f| people.valid[f])
-                .map(|f| (f, person)),
-        );
-        notes.extend(people.notes);
-    }
+                .filter(|&f| track.valid[f])
+                .map(move |f| (f, person))
+        })
+        .collect();
     frames.sort_unstable();
+    let mut notes: Vec<String> = tracks.iter().flat_map(|t| t.notes.clone()).collect();
     notes.sort();
     notes.dedup();
     for (frame, person) in frames.into_iter().take(limit) {
-        let people = person_sequence(dataset, person, model, true)?;
+        let people = &tracks[person];
         let inputs = split_views(dataset, "inputs", frame)?
             .into_iter()
             .map(|r| view(r, size, people.world_scale, device))
