@@ -187,6 +187,24 @@ impl PoseSequence {
         out
     }
 
+    /// Frames `frames` of this sequence, in that order (each index below [`Self::frames`]).
+    pub fn frames_subset(&self, frames: &[usize]) -> Self {
+        let mut out = Self {
+            poses: Vec::with_capacity(frames.len() * 3 * self.joints),
+            translations: Vec::with_capacity(frames.len() * 3),
+            betas: Vec::with_capacity(frames.len() * self.shape_count),
+            joints: self.joints,
+            shape_count: self.shape_count,
+            fps: self.fps,
+        };
+        for &f in frames {
+            out.poses.extend_from_slice(self.pose(f));
+            out.translations.extend(self.translation(f));
+            out.betas.extend_from_slice(self.frame_betas(f));
+        }
+        out
+    }
+
     /// `frames` frames of this sequence, looping (frame `f` is frame `f mod T`), each with the
     /// shape `betas` (the driven body's own, not the sequence's). `None` for an empty sequence.
     pub fn looped(&self, frames: usize, betas: &[f64]) -> Option<Self> {

@@ -64,27 +64,36 @@ pub struct BodyFitReport {
     /// Mean reprojection RMS of the keypoints, pixels, before and after.
     pub prior_reprojection_px: f64,
     pub fitted_reprojection_px: f64,
-    /// Camera-space MPJPE against the true motion, mm: absolute, and with each frame's root
-    /// aligned (what keypoints can fix; the depth along the ray they can hardly see).
-    pub prior_mpjpe_mm: f64,
-    pub fitted_mpjpe_mm: f64,
-    pub prior_aligned_mpjpe_mm: f64,
-    pub fitted_aligned_mpjpe_mm: f64,
+    /// Against the true motion, where the capture has it.
+    pub mpjpe: Option<FitMpjpe>,
+}
+
+/// Camera-space MPJPE of the body prior before and after the fit against the true motion, mm:
+/// absolute, and with each frame's root aligned (what keypoints can fix; the depth along the
+/// ray they can hardly see).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FitMpjpe {
+    pub prior_mm: f64,
+    pub fitted_mm: f64,
+    pub prior_aligned_mm: f64,
+    pub fitted_aligned_mm: f64,
 }
 
 impl BodyFitReport {
     pub fn line(&self) -> String {
+        let mpjpe = self.mpjpe.as_ref().map_or_else(String::new, |m| {
+            format!(
+                "; MPJPE {:.1} → {:.1} mm ({:.1} → {:.1} mm root-aligned)",
+                m.prior_mm, m.fitted_mm, m.prior_aligned_mm, m.fitted_aligned_mm
+            )
+        });
         format!(
             "stage C: body prior refined on the keypoints in {} of {} frames; reprojection \
-             {:.1} → {:.1} px; MPJPE {:.1} → {:.1} mm ({:.1} → {:.1} mm root-aligned)",
+             {:.1} → {:.1} px{mpjpe}",
             self.fitted,
             self.fitted + self.kept,
             self.prior_reprojection_px,
             self.fitted_reprojection_px,
-            self.prior_mpjpe_mm,
-            self.fitted_mpjpe_mm,
-            self.prior_aligned_mpjpe_mm,
-            self.fitted_aligned_mpjpe_mm
         )
     }
 }
@@ -198,19 +207,24 @@ pub fn refine_on_keypoints(
         refined.poses[t * j..(t + 1) * j].copy_from_slice(&fit.pose);
         refined.translations[3 * t..3 * t + 3].copy_from_slice(&fit.translation);
     }
-    let truth = track_joints(model, &capture.acting_truth, device);
-    let prior_joints = track_joints(model, prior, device);
-    let refined_joints = track_joints(model, &refined, device);
+    let mpjpe = capture.truth.as_ref().map(|truth| {
+        let truth = track_joints(model, &truth.acting_motion, device);
+        let prior_joints = track_joints(model, prior, device);
+        let refined_joints = track_joints(model, &refined, device);
+        FitMpjpe {
+            prior_mm: mpjpe_mm(prior_joints.clone(), truth.clone()),
+            fitted_mm: mpjpe_mm(refined_joints.clone(), truth.clone()),
+            prior_aligned_mm: mpjpe_mm(root_aligned(prior_joints), root_aligned(truth.clone())),
+            fitted_aligned_mm: mpjpe_mm(root_aligned(refined_joints), root_aligned(truth)),
+        }
+    });
     let n = fitted.max(1) as f64;
     let report = BodyFitReport {
         fitted,
         kept,
         prior_reprojection_px: before / n,
         fitted_reprojection_px: after / n,
-        prior_mpjpe_mm: mpjpe_mm(prior_joints.clone(), truth.clone()),
-        fitted_mpjpe_mm: mpjpe_mm(refined_joints.clone(), truth.clone()),
-        prior_aligned_mpjpe_mm: mpjpe_mm(root_aligned(prior_joints), root_aligned(truth.clone())),
-        fitted_aligned_mpjpe_mm: mpjpe_mm(root_aligned(refined_joints), root_aligned(truth)),
+        mpjpe,
     };
     Ok((refined, report))
 }

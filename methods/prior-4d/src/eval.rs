@@ -6,14 +6,20 @@
 //! against the true normals over the true person mask (a pixel the avatar leaves uncovered,
 //! rendered normal shorter than 0.1, counts 90°); the mask
 //! IoU of the rendered avatar (alpha > 0.5) against the true mask. The avatar is placed by the
-//! (refined) acting camera of the same frame. On the acting frames: |σ/σ* − 1|, the foot
-//! penetration rate against the true floor (lowest foot vertex more than Δ_c below it), the
-//! mean absolute and the mean signed height of the 25 lowest foot vertices, the acting cameras' error (centre RMS in metres,
-//! mean rotation in degrees) and the joint error of the refined body track (camera frame, mm).
+//! (refined) acting camera of the same frame. On the acting frames, where the capture has its
+//! truth ([`TruthScores`]): |σ/σ* − 1|, the foot penetration rate against the true floor
+//! (lowest foot vertex more than Δ_c below it), the mean absolute and the mean signed height of
+//! the 25 lowest foot vertices, the acting cameras' error (centre RMS in metres, mean rotation
+//! in degrees) and the joint error of the refined body track (camera frame, mm).
+//!
+//! A real capture has no evaluation camera and no truth: it is scored at its held-out acting
+//! frames ([`crate::data::ActingFrame::held_out`]), each seen from its own (given) camera with
+//! the body placed there from the prior, against its given person mask; the normal error and
+//! the truth scores are then `None`.
 
 use crate::avatar::posed_avatar;
 use crate::camera::{RigidFrame, camera_to_world};
-use crate::data::Prior4dCapture;
+use crate::data::{CaptureTruth, Prior4dCapture};
 use crate::error::Prior4dError;
 use crate::joint::JointStage;
 use crate::locate::place;
@@ -35,10 +41,20 @@ pub struct JointScores {
     pub ssim: f64,
     pub one_minus_ssim: f64,
     pub lpips: Option<f64>,
-    pub normal_mean_degrees: f64,
-    pub normal_median_degrees: f64,
+    /// `None` where the evaluation frames carry no normals (a real capture).
+    pub normal_mean_degrees: Option<f64>,
+    pub normal_median_degrees: Option<f64>,
     pub mask_iou: f64,
     pub sigma: f64,
+    /// Against the capture's truth; `None` on a real capture (its keys then leave the JSON).
+    #[serde(flatten)]
+    pub truth: Option<TruthScores>,
+    pub frames: usize,
+}
+
+/// The scores only the synthetic capture's truth ([`crate::data::CaptureTruth`]) allows.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TruthScores {
     pub sigma_star: f64,
     pub sigma_error: f64,
     pub penetration_rate: f64,
@@ -49,7 +65,6 @@ pub struct JointScores {
     pub camera_rotation_degrees: f64,
     pub mpjpe_mm: f64,
     pub prior_mpjpe_mm: f64,
-    pub frames: usize,
 }
 
 fn angle_degrees(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -74,8 +89,8 @@ fn rows3(t: &Tensor<2>) -> Vec<[f64; 3]> {
 }
 
 impl JointStage {
-    /// Scene (`scene`, its splats now) and avatar at synchronised frame `t` seen from the
-    /// evaluation camera, the avatar placed by acting camera `t` (refined when `refine`).
+    /// Scene (`scene`, its splats now) and avatar at evaluation frame `t` seen from its camera,
+    /// the avatar placed by the acting camera of its acting frame (refined when `refine`).
     pub fn render_eval(
         &self,
         capture: &Prior4dCapture,
@@ -84,8 +99,9 @@ impl JointStage {
         refine: bool,
     ) -> Result<crate::render::Layers, Prior4dError> {
         let eval = &capture.eval[t];
-        let acting = self.acting_view(capture, t, refine, None);
-        let avatar = self.placed_avatar(capture, t, &acting, self.log_sigma.clone());
+        let frame = eval.acting_frame;
+        let acting = self.acting_view(capture, frame, refine, None);
+        let avatar = self.placed_avatar(capture, frame, &acting, self.log_sigma.clone());
         let view = RigidFrame::of_camera(&eval.camera, &self.log_sigma.device());
         self.layers(
             Some(scene),
@@ -112,13 +128,14 @@ impl JointStage {
         Ok(frames.len())
     }
 
-    /// Scores now; `sigma_star` is the true global scale for this avatar's body.
+    /// Scores now; `sigma_star` is the true global scale for this avatar's body, where the
+    /// capture knows it.
     pub fn evaluate(
         &self,
         capture: &Prior4dCapture,
         refine: bool,
         stride: usize,
-        sigma_star: f64,
+        sigma_star: Option<f64>,
         lpips: Option<&Lpips>,
     ) -> Result<JointScores, Prior4dError> {
         let scene = self.scene_splats(capture);
@@ -149,10 +166,10 @@ impl JointStage {
                 let truth = eval.mask.data[k];
                 inter += usize::from(ours && truth);
                 union += usize::from(ours || truth);
-                if truth {
+                if let (true, Some(normals)) = (truth, &eval.normals) {
                     let n = [0, 1, 2].map(|c| f64::from(normal[3 * k + c]));
                     let covered = n.iter().map(|v| v * v).sum::<f64>() >= 0.01;
-                    let m = eval.normals[k].map(f64::from);
+                    let m = normals[k].map(f64::from);
                     angles.push(if covered { angle_degrees(n, m) } else { 90.0 });
                 }
             }
@@ -164,6 +181,7 @@ impl JointStage {
         }
         let n = frames.len().max(1) as f64;
         angles.sort_by(f64::total_cmp);
+        let has_normals = frames.iter().any(|&t| capture.eval[t].normals.is_some());
         // No person in any evaluated frame: nothing to score, reported as the worst case.
         let mean_angle = if angles.is_empty() {
             90.0
@@ -171,9 +189,37 @@ impl JointStage {
             angles.iter().sum::<f64>() / angles.len() as f64
         };
         let median_angle = angles.get(angles.len() / 2).copied().unwrap_or(90.0);
+        let truth = match (&capture.truth, sigma_star) {
+            (Some(truth), Some(sigma_star)) => {
+                Some(self.truth_scores(capture, truth, refine, sigma_star)?)
+            }
+            _ => None,
+        };
+        Ok(JointScores {
+            psnr: p / n,
+            human_psnr: (!human.is_empty()).then(|| human.iter().sum::<f64>() / human.len() as f64),
+            ssim: s / n,
+            one_minus_ssim: 1.0 - s / n,
+            lpips: lpips.map(|_| lp / n),
+            normal_mean_degrees: has_normals.then_some(mean_angle),
+            normal_median_degrees: has_normals.then_some(median_angle),
+            mask_iou: iou / n,
+            sigma: self.sigma(),
+            truth,
+            frames: frames.len(),
+        })
+    }
 
-        // Feet against the true floor (y = 0 in scene units) and the cameras against the truth.
-        let scale = capture.scale;
+    /// On every acting frame: σ against σ*, the feet against the true floor (`y = 0` in scene
+    /// units), the cameras and the body track against the truth.
+    fn truth_scores(
+        &self,
+        capture: &Prior4dCapture,
+        truth: &CaptureTruth,
+        refine: bool,
+        sigma_star: f64,
+    ) -> Result<TruthScores, Prior4dError> {
+        let scale = truth.scale;
         let margin = 0.02 * scale;
         let (mut penetrating, mut heights, mut distances) = (0usize, 0.0, 0.0);
         let (mut centre_sq, mut rotation_err) = (0.0, 0.0);
@@ -191,7 +237,17 @@ impl JointStage {
             let count = lowest.len().max(1) as f64;
             heights += lowest.iter().sum::<f64>() / count;
             distances += lowest.iter().map(|h| h.abs()).sum::<f64>() / count;
-            let (r_true, c_true) = camera_to_world(&capture.acting[t].true_camera);
+            let camera = truth.acting_cameras.get(t).ok_or_else(|| {
+                Prior4dError::input(
+                    "capture truth",
+                    format!(
+                        "{} true cameras for {} acting frames",
+                        truth.acting_cameras.len(),
+                        capture.acting.len()
+                    ),
+                )
+            })?;
+            let (r_true, c_true) = camera_to_world(camera);
             let r = rows3(&view.rotation);
             let c = host_f32(&view.centre);
             centre_sq += (0..3)
@@ -203,23 +259,14 @@ impl JointStage {
 
         let device = self.log_sigma.device();
         let model = &builtin_body().model;
-        let truth = track_joints(model, &capture.acting_truth, &device);
+        let true_joints = track_joints(model, &truth.acting_motion, &device);
         let prior = track_joints(model, &capture.acting_prior, &device);
         let refined: Vec<Tensor<2>> = (0..capture.acting.len())
             .map(|t| self.avatar.joint_positions(t))
             .collect();
         let refined = Tensor::stack::<3>(refined, 0);
         let sigma = self.sigma();
-        Ok(JointScores {
-            psnr: p / n,
-            human_psnr: (!human.is_empty()).then(|| human.iter().sum::<f64>() / human.len() as f64),
-            ssim: s / n,
-            one_minus_ssim: 1.0 - s / n,
-            lpips: lpips.map(|_| lp / n),
-            normal_mean_degrees: mean_angle,
-            normal_median_degrees: median_angle,
-            mask_iou: iou / n,
-            sigma,
+        Ok(TruthScores {
             sigma_star,
             sigma_error: (sigma / sigma_star - 1.0).abs(),
             penetration_rate: penetrating as f64 / f,
@@ -227,9 +274,8 @@ impl JointStage {
             foot_height_mm: heights / f / scale * 1000.0,
             camera_centre_rms_mm: (centre_sq / f).sqrt() / scale * 1000.0,
             camera_rotation_degrees: rotation_err / f,
-            mpjpe_mm: mpjpe_mm(refined, truth.clone()),
-            prior_mpjpe_mm: mpjpe_mm(prior, truth),
-            frames: frames.len(),
+            mpjpe_mm: mpjpe_mm(refined, true_joints.clone()),
+            prior_mpjpe_mm: mpjpe_mm(prior, true_joints),
         })
     }
 }

@@ -304,7 +304,8 @@ impl JointStage {
         steps: usize,
     ) -> Result<JointTerms, Prior4dError> {
         let j = &config.joint;
-        let t = self.order.next(capture.acting.len());
+        let trained = capture.trained_indices();
+        let t = trained[self.order.next(trained.len())];
         let frame = &capture.acting[t];
         self.attach_offsets(config, true);
         self.scene.begin_step();
@@ -354,12 +355,8 @@ impl JointStage {
             ..JointTerms::default()
         };
         let mut loss = photo;
-        if j.normal > 0.0 {
-            let normal = normal_loss(
-                layers.normal.clone(),
-                frame.normals.clone().autodiff(),
-                mask,
-            );
+        if let (true, Some(given)) = (j.normal > 0.0, &frame.normals) {
+            let normal = normal_loss(layers.normal.clone(), given.clone().autodiff(), mask);
             terms.normal = scalar(normal.clone().inner());
             loss = loss + normal * j.normal;
         }

@@ -99,6 +99,8 @@ impl Prior4d {
     fn assemble(mut config: Prior4dConfig, device: &Device) -> Result<Self, Prior4dError> {
         device.seed(config.seed);
         let mut capture = config.data.build(device)?;
+        let missing = resolve_missing_inputs(&mut config, &capture);
+        capture.decisions.extend(missing);
         if config.body_fit.keypoints {
             let (refined, report) = refine_on_keypoints(&capture, &config.body_fit, device)?;
             capture.acting_prior = refined;
@@ -163,7 +165,9 @@ impl Prior4d {
     /// avatar's, both measured as the vertical extent in the avatar's canonical pose (the
     /// avatar's surface is its canonical Gaussians — its shape coefficients move the skeleton,
     /// not the surface — so its height is measured on them).
-    pub fn sigma_star(&self) -> f64 {
+    /// `None` on a real capture, which has no truth.
+    pub fn sigma_star(&self) -> Option<f64> {
+        let truth = self.capture.truth.as_ref()?;
         let set = match &self.joint {
             Some(joint) => joint.avatar.canonical_set(),
             None => self.avatar.node.canonical_set(),
@@ -175,13 +179,13 @@ impl Prior4d {
             hi - lo
         };
         let avatar = extent(&mut host_f32(&set.means).chunks(3).map(|p| f64::from(p[1])));
-        let truth = true_canonical_vertices(
-            &self.capture.true_betas,
+        let true_height = true_canonical_vertices(
+            &truth.betas,
             self.config.avatar.node.canonical_pose,
             &set.means.device(),
         );
-        let truth = extent(&mut truth.chunks(3).map(|p| f64::from(p[1])));
-        self.capture.scale * truth / avatar
+        let true_height = extent(&mut true_height.chunks(3).map(|p| f64::from(p[1])));
+        Some(truth.scale * true_height / avatar)
     }
 
     /// Stage C and a fresh stage D from the current scene and scan avatar.
@@ -236,14 +240,16 @@ impl Prior4d {
                 if self.joint.is_none() {
                     let joint = self.start_joint()?;
                     let scores = self.joint_scores(&joint, None)?;
+                    let sigma_star = self
+                        .sigma_star()
+                        .map_or_else(|| "no truth".into(), |s| format!("σ* = {s:.4}"));
                     note = Some(format!(
                         "stage C: floor from {} of {} ground points (RMS {:.4}), σ₀ = {:.4} \
-                         (σ* = {:.4}); priors alone: PSNR {:.2} dB, mask IoU {:.3}",
+                         ({sigma_star}); priors alone: PSNR {:.2} dB, mask IoU {:.3}",
                         joint.init.fit.inliers.len(),
                         joint.init.candidates,
                         joint.init.fit.rms,
                         joint.init.sigma0,
-                        self.sigma_star(),
                         scores.psnr,
                         scores.mask_iou
                     ));
@@ -267,6 +273,44 @@ impl Prior4d {
             (None, _) => &self.avatar.order,
         }
     }
+}
+
+/// Turns off what needs an input the capture lacks (a real one: [`crate::data::neuman`]) and
+/// says so: a prior without its scan comes from the acting video, the keypoint fit needs
+/// keypoints, the normal term normal maps.
+fn resolve_missing_inputs(config: &mut Prior4dConfig, capture: &Prior4dCapture) -> Vec<String> {
+    let mut decisions = Vec::new();
+    if capture.scene_scan.is_empty() && config.scene.source == PriorSource::Scan {
+        config.scene.source = PriorSource::Acting;
+        decisions.push(
+            "the capture has no scene scan: the scene prior comes from the acting video \
+             (scene.source = \"acting\"; a scene.initial_ply, such as a scan trained by \
+             train-3dgs in the acting video's COLMAP world, starts it)"
+                .to_owned(),
+        );
+    }
+    if capture.human_scan.is_empty() && config.avatar.source == PriorSource::Scan {
+        config.avatar.source = PriorSource::Acting;
+        decisions.push(
+            "the capture has no human scan: the avatar prior comes from the acting video \
+             (avatar.source = \"acting\"; an avatar.initial_ply starts it)"
+                .to_owned(),
+        );
+    }
+    if capture.acting_keypoints.is_empty() && config.body_fit.keypoints {
+        config.body_fit.keypoints = false;
+        decisions.push(
+            "the capture has no 2-D keypoints: stage C keeps the body fit as given \
+                        (body_fit.keypoints = false)"
+                .to_owned(),
+        );
+    }
+    if capture.acting.iter().all(|f| f.normals.is_none()) && config.joint.normal > 0.0 {
+        config.joint.normal = 0.0;
+        decisions
+            .push("the capture has no normal maps: no normal term (joint.normal = 0)".to_owned());
+    }
+    decisions
 }
 
 /// The built-in body's vertices (flat `[V · 3]`) at shape `betas` in `pose`.

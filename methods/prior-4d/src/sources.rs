@@ -11,8 +11,9 @@
 //!   how ExAvatar fits a monocular video) with the person masks and the camera-space body prior
 //!   (after stage C's keypoint refinement when that is on).
 //!
-//! Every acting frame is offered to the stage, which holds out its own share as it does on a
-//! scan; the evaluation camera stays unseen.
+//! Every acting frame but a real capture's held-out ones ([`crate::data::ActingFrame::held_out`])
+//! is offered to the stage, which holds out its own share as it does on a scan; the evaluation
+//! camera stays unseen.
 
 use crate::camera::camera_at_origin;
 use crate::data::{HumanScanView, Prior4dCapture, SceneScanView};
@@ -34,8 +35,7 @@ impl Prior4dCapture {
     pub fn scene_from_acting(&mut self) -> String {
         let scanned = self.scene_scan.len();
         self.scene_scan = self
-            .acting
-            .iter()
+            .trained_frames()
             .map(|frame| SceneScanView {
                 camera: frame.camera,
                 image: frame.image.clone(),
@@ -58,16 +58,22 @@ impl Prior4dCapture {
     /// camera frame; returns the decision.
     pub fn avatar_from_acting(&mut self) -> String {
         let scanned = self.human_scan.len();
-        self.human_scan = self
-            .acting
+        let prior = &self.acting_prior;
+        let trained = self.trained_indices();
+        self.human_scan = trained
             .iter()
+            .map(|&t| &self.acting[t])
             .map(|frame| HumanScanView {
                 camera: camera_at_origin(&frame.camera),
                 image: frame.image.clone(),
                 mask: frame.mask.clone(),
             })
             .collect();
-        self.scan_prior = self.acting_prior.clone();
+        self.scan_prior = if trained.len() == self.acting.len() {
+            prior.clone()
+        } else {
+            prior.frames_subset(&trained)
+        };
         format!(
             "avatar prior from the acting video (avatar.source = \"acting\"): {} frames in \
              each camera's frame, with the camera-space body prior, in place of the \

@@ -113,25 +113,31 @@ struct Args {
     out: PathBuf,
 }
 
+/// `v` to `precision` decimals, empty where the capture could not score it.
+fn cell(v: Option<f64>, precision: usize) -> String {
+    v.map_or(String::new(), |v| format!("{v:.precision$}"))
+}
+
 fn csv_row(arm: &str, seed: u64, s: &JointScores, seconds: f64) -> String {
+    let t = s.truth.as_ref();
     format!(
-        "{arm},{seed},{:.3},{},{:.4},{:.4},{:.2},{:.2},{:.4},{:.4},{:.4},{:.4},{:.1},{:.1},{:.1},{:.3},{:.1},{:.1},{seconds:.0}",
+        "{arm},{seed},{:.3},{},{:.4},{:.4},{},{},{:.4},{:.4},{},{},{},{},{},{},{},{},{seconds:.0}",
         s.psnr,
-        s.human_psnr.map_or(String::new(), |v| format!("{v:.3}")),
+        cell(s.human_psnr, 3),
         s.ssim,
         s.one_minus_ssim,
-        s.normal_mean_degrees,
-        s.normal_median_degrees,
+        cell(s.normal_mean_degrees, 2),
+        cell(s.normal_median_degrees, 2),
         s.mask_iou,
         s.sigma,
-        s.sigma_error,
-        s.penetration_rate,
-        s.foot_distance_mm,
-        s.foot_height_mm,
-        s.camera_centre_rms_mm,
-        s.camera_rotation_degrees,
-        s.mpjpe_mm,
-        s.prior_mpjpe_mm,
+        cell(t.map(|t| t.sigma_error), 4),
+        cell(t.map(|t| t.penetration_rate), 4),
+        cell(t.map(|t| t.foot_distance_mm), 1),
+        cell(t.map(|t| t.foot_height_mm), 1),
+        cell(t.map(|t| t.camera_centre_rms_mm), 1),
+        cell(t.map(|t| t.camera_rotation_degrees), 3),
+        cell(t.map(|t| t.mpjpe_mm), 1),
+        cell(t.map(|t| t.prior_mpjpe_mm), 1),
     )
 }
 

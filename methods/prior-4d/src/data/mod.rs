@@ -25,6 +25,7 @@
 //! `pose_clothing` it also moves with the pose (bunching at bent knees, a hem flaring with the
 //! stride), which only ΔV_pose can represent.
 
+pub mod neuman;
 pub mod occluder;
 mod sensors;
 pub mod textureless;
@@ -54,6 +55,7 @@ use splatzoo_models::body::fit::body25_targets;
 use splatzoo_rasterizer::Camera;
 use splatzoo_train::views::InitPoints;
 use splatzoo_train::views::init_points::back_project;
+use std::path::PathBuf;
 use textureless::textureless_panels;
 
 /// Every knob of the synthetic capture.
@@ -103,6 +105,15 @@ pub struct Prior4dDataConfig {
     /// Plainly painted panels over the walls behind the person in the evaluation view (spec
     /// §7's textureless wall: [`textureless::textureless_panels`]).
     pub textureless_wall: bool,
+    /// A real capture to read instead of rendering the synthetic one: a NeuMan scene folder
+    /// ([`neuman`]), read at `width` wide with `scene_points` and `seed`; the other knobs are
+    /// the synthetic capture's.
+    pub capture: Option<PathBuf>,
+    /// On a real capture without a test split: every this many frames is held out for scoring.
+    pub held_out_every: usize,
+    /// On a real capture: keep its fit's shape coefficients (they mean the built-in body's own
+    /// only if that is the body it was fitted with).
+    pub capture_betas: bool,
 }
 
 impl Default for Prior4dDataConfig {
@@ -129,6 +140,9 @@ impl Default for Prior4dDataConfig {
             occluder: false,
             pose_clothing: false,
             textureless_wall: false,
+            capture: None,
+            held_out_every: 8,
+            capture_betas: false,
         }
     }
 }
@@ -146,6 +160,12 @@ impl Prior4dDataConfig {
         }
         if !(self.scene_scale.is_finite() && self.scene_scale > 0.0) {
             return Err(format!("data.scene_scale > 0, got {}", self.scene_scale));
+        }
+        if self.held_out_every < 2 {
+            return Err(format!(
+                "data.held_out_every ≥ 2, got {}",
+                self.held_out_every
+            ));
         }
         if self.supersample == 0 {
             return Err("data.supersample ≥ 1".into());
@@ -216,13 +236,16 @@ pub struct HumanScanView {
 pub struct ActingFrame {
     /// The SfM estimate of the camera, in scene units.
     pub camera: Camera,
-    /// The true camera, scene units (scores only).
-    pub true_camera: Camera,
     pub image: Tensor<3>,
     /// `[H, W]` 0/1 person mask.
     pub mask: Tensor<2>,
-    /// `[H, W, 3]` the given normal map, camera frame (OpenCV axes), zero off the person.
-    pub normals: Tensor<3>,
+    /// `[H, W, 3]` the given normal map, camera frame (OpenCV axes), zero off the person;
+    /// `None` where the capture gives none (the normal term then has nothing to compare with).
+    pub normals: Option<Tensor<3>>,
+    /// Kept for scoring: no stage trains on its image (a real capture's held-out frames, which
+    /// [`EvalFrame::acting_frame`] points at; none on the synthetic capture, which has its own
+    /// evaluation camera). Stage D still places the body there, from the prior.
+    pub held_out: bool,
     /// The floor's pixels outside the person mask, jittered, its monocular inverse depth (0 on
     /// the person) and true depth (∞ on the person), as the scan views have them: read only
     /// when the scene prior comes from this video ([`crate::sources`]).
@@ -233,11 +256,28 @@ pub struct ActingFrame {
 
 /// One evaluation frame (never trained on).
 pub struct EvalFrame {
+    /// The acting frame whose body and (refined) camera place the person in this view: the
+    /// synchronised frame on the synthetic capture, the held-out frame itself on a real one.
+    pub acting_frame: usize,
     pub camera: Camera,
     pub image: Tensor<3>,
-    /// The true person mask and camera-frame normals (zero off the person).
+    /// The person mask: the true one on the synthetic capture, the given one on a real one.
     pub mask: Mask,
-    pub normals: Vec<[f32; 3]>,
+    /// True camera-frame normals (zero off the person), where the capture knows them.
+    pub normals: Option<Vec<[f32; 3]>>,
+}
+
+/// What only the synthetic capture knows, for the scores (`None` on a real capture, whose
+/// scores then leave out σ*, the camera error, MPJPE and the floor penetration).
+pub struct CaptureTruth {
+    /// The true acting cameras, scene units.
+    pub acting_cameras: Vec<Camera>,
+    /// The acting video's true body motion, each frame in its true camera's frame (metres).
+    pub acting_motion: PoseSequence,
+    /// The person's true shape.
+    pub betas: Vec<f64>,
+    /// Scene units per metre (σ* for a body of the true height); the true floor is `y = 0`.
+    pub scale: f64,
 }
 
 /// Where the acting video's cameras come from: what decides whether stage D refines them.
@@ -268,19 +308,29 @@ pub struct Prior4dCapture {
     /// Where `acting`'s cameras come from (the synthetic capture: estimated unless both of its
     /// camera-noise knobs are 0).
     pub acting_cameras: CameraSource,
-    /// The acting video's body prior and truth in each frame's true camera frame (metres).
+    /// The acting video's body prior in each frame's camera frame (metres).
     pub acting_prior: PoseSequence,
-    pub acting_truth: PoseSequence,
     /// BODY_25 keypoints `[x, y, confidence]` of every acting frame (`[0, 0, 0]` where the
-    /// detector missed the point or it is off the image).
+    /// detector missed the point or it is off the image); empty where the capture gives none.
     pub acting_keypoints: Vec<Vec<[f32; 3]>>,
     pub eval: Vec<EvalFrame>,
-    /// The person's true shape (scores only).
-    pub true_betas: Vec<f64>,
-    /// Scene units per metre.
-    pub scale: f64,
+    pub truth: Option<CaptureTruth>,
     pub fps: f64,
     pub decisions: Vec<String>,
+}
+
+impl Prior4dCapture {
+    /// The acting frames the stages train on: all but the held-out ones.
+    pub fn trained_frames(&self) -> impl Iterator<Item = &ActingFrame> {
+        self.acting.iter().filter(|frame| !frame.held_out)
+    }
+
+    /// Their indices.
+    pub fn trained_indices(&self) -> Vec<usize> {
+        (0..self.acting.len())
+            .filter(|&t| !self.acting[t].held_out)
+            .collect()
+    }
 }
 
 fn srgb(view: &ViewTruth, gain: [f32; 3]) -> Vec<f32> {
@@ -353,6 +403,9 @@ impl Prior4dDataConfig {
     pub fn build(&self, device: &Device) -> Result<Prior4dCapture, Prior4dError> {
         self.validate()
             .map_err(|problem| Prior4dError::input("data", problem))?;
+        if let Some(root) = &self.capture {
+            return neuman::read_neuman(root, self, device);
+        }
         let (w, h) = (self.width as usize, self.height as usize);
         let model = &builtin_body().model;
         let mut rng = Rng(self.seed ^ 0x9414_0000);
@@ -508,6 +561,7 @@ impl Prior4dDataConfig {
         // the capture as it was.
         let mut acting_scene_rng = Rng(self.seed ^ 0x9414_0003);
         let mut eval = Vec::with_capacity(self.acting_frames);
+        let mut true_cameras = Vec::with_capacity(self.acting_frames);
         for t in 0..acting_scene.frame_count {
             let mut truths = acting_scene.render_tracks(t, &[0, 1], true).into_iter();
             let (act, fixed) = (
@@ -555,21 +609,26 @@ impl Prior4dDataConfig {
                     .map(|(&f, &p)| f && !p)
                     .collect(),
             );
+            true_cameras.push(true_camera);
             acting.push(ActingFrame {
                 camera,
-                true_camera,
                 image: image_tensor(image, w, h, device),
                 mask: mask_tensor(&person, device),
-                normals: Tensor::from_data(TensorData::new(normals, [h, w, 3]), device),
+                normals: Some(Tensor::from_data(
+                    TensorData::new(normals, [h, w, 3]),
+                    device,
+                )),
+                held_out: false,
                 ground: jittered(ground, self.mask_jitter, &mut acting_scene_rng),
                 mono_inverse_depth: Tensor::from_data(TensorData::new(mono, [h, w]), device),
                 depth: surroundings,
             });
             let eval_mask = Mask::new(w, h, fixed.human_mask());
             eval.push(EvalFrame {
+                acting_frame: t,
                 camera: scaled_camera(&fixed.camera, scale),
                 image: image_tensor(srgb(&fixed, self.acting_gain), w, h, device),
-                normals: true_normals(&fixed, &eval_mask),
+                normals: Some(true_normals(&fixed, &eval_mask)),
                 mask: eval_mask,
             });
         }
@@ -616,11 +675,14 @@ impl Prior4dDataConfig {
                 CameraSource::Estimated
             },
             acting_prior,
-            acting_truth,
             acting_keypoints,
             eval,
-            true_betas,
-            scale,
+            truth: Some(CaptureTruth {
+                acting_cameras: true_cameras,
+                acting_motion: acting_truth,
+                betas: true_betas,
+                scale,
+            }),
             fps,
             decisions,
         })

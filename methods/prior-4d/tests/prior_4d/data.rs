@@ -45,7 +45,12 @@ fn the_capture_has_what_the_claims_need() {
         let mask = values(frame.mask.clone());
         let area = mask.iter().filter(|&&m| m > 0.5).count();
         assert!(area > 30, "acting frame {t}: {area} person pixels");
-        let normals = values(frame.normals.clone());
+        let normals = values(
+            frame
+                .normals
+                .clone()
+                .expect("the synthetic capture's normals"),
+        );
         let facing = (0..mask.len())
             .filter(|&p| normals[3 * p + 2] < 0.0)
             .count();
@@ -149,14 +154,18 @@ fn rotation_of(camera: &Camera) -> glam::DMat3 {
 #[test]
 fn the_acting_video_films_the_front_and_the_evaluation_camera_sees_the_back() {
     let capture = acting_capture(false);
+    let truth = capture
+        .truth
+        .as_ref()
+        .expect("the synthetic capture's truth");
     let (mut acting, mut evaluation) = (Vec::new(), Vec::new());
-    for (t, frame) in capture.acting.iter().enumerate() {
-        let root = capture.acting_truth.pose(t);
+    for (t, true_camera) in truth.acting_cameras.iter().enumerate() {
+        let root = truth.acting_motion.pose(t);
         let in_camera = glam::DQuat::from_scaled_axis(glam::DVec3::new(root[0], root[1], root[2]))
             * glam::DVec3::Z;
         // −z in a camera's frame: 1 facing it, −1 showing it her back.
         acting.push(-in_camera.z);
-        let world = rotation_of(&frame.true_camera).transpose() * in_camera;
+        let world = rotation_of(true_camera).transpose() * in_camera;
         evaluation.push(-(rotation_of(&capture.eval[t].camera) * world).z);
     }
     let least = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);

@@ -18,7 +18,7 @@ use splatzoo_train::loss::photometric;
 #[test]
 fn scene_views_from_the_acting_video_leave_the_person_out() {
     let mut capture = tiny_capture();
-    let scale = capture.scale;
+    let scale = capture.truth.as_ref().unwrap().scale;
     let acting_points = capture.acting_points.len();
     assert!(acting_points > 100, "{acting_points} acting points");
     capture.scene_from_acting();

@@ -116,7 +116,7 @@ fn four_stages_run_with_finite_losses() {
     // Stage C found the floor and a scale near the truth.
     let plane = joint.plane();
     assert!(plane.normal[1] > 0.99, "floor normal {:?}", plane.normal);
-    let sigma_star = method.sigma_star();
+    let sigma_star = method.sigma_star().expect("the synthetic capture's truth");
     assert!(
         (joint.init.sigma0 / sigma_star - 1.0).abs() < 0.1,
         "σ₀ {} against σ* {sigma_star}",

@@ -1,0 +1,329 @@
+//! A real capture: a NeuMan scene folder (`splatzoo_datasets::formats::neuman`, as NeuMan's
+//! preprocessing leaves it) read as Prior-4D's acting video, with its own scene. What the
+//! paper's inputs need and NeuMan gives, and what it does not:
+//!
+//! - **acting frames**: every image whose person has a body fit and an alignment, in name
+//!   order, resized to `data.width` wide (the height by the image's aspect, intrinsics scaled
+//!   alike); its COLMAP camera (scene units: COLMAP's); its person mask (`segmentations/`);
+//!   images must be undistorted (NeuMan's are: its COLMAP model is `PINHOLE`).
+//! - **the body prior**: the SMPL fit, placed in COLMAP's world by NeuMan's alignment
+//!   `x = s R x_smpl + t` and taken into each camera's frame in metres: the world is rescaled
+//!   by `1/s` for the body (`splatzoo_train::views::people`), so the alignment's median `s` is
+//!   NeuMan's own estimate of the global scale σ, reported beside σ₀, not a truth. The SMPL
+//!   pose drives the built-in body's joints (same layout); SMPL's shape coefficients mean
+//!   nothing to that body, so the rest shape is used unless `data.capture_betas` (stage D
+//!   refines the shape either way).
+//! - **held-out frames** for the scores (the capture has no synchronised evaluation camera):
+//!   NeuMan's `test_split.txt` where it exists, else every `data.held_out_every`-th frame. No
+//!   stage trains on their pixels; the body is placed there from the prior
+//!   ([`super::ActingFrame::held_out`]).
+//! - **the scene prior's points**: COLMAP's sparse points, at most `data.scene_points`.
+//! - **ground pixels** (NeuMan has no ground masks; our rule): around the body prior's ankles
+//!   and feet projected into each frame, a disc of 0.3 × the person mask's height, below the
+//!   ankles and outside the person: the floor she stands on, whatever the scene's scale
+//!   (projection needs none).
+//! - **not given**: normal maps, monocular depth, 2-D keypoints, the scene and human scans,
+//!   any truth. The trainer turns off what needs them and says so
+//!   ([`crate::method::Prior4dMethod`]'s decisions).
+
+use super::{
+    ActingFrame, CameraSource, EvalFrame, Prior4dCapture, Prior4dDataConfig, to_camera_space,
+};
+use crate::data::sensors::scaled_camera;
+use crate::error::Prior4dError;
+use burn::tensor::{Device, Tensor, TensorData};
+use image::imageops::FilterType;
+use splatzoo_datasets::formats::{Dataset, ViewRecord, neuman};
+use splatzoo_datasets::masks::Mask;
+use splatzoo_models::body::builtin_body;
+use splatzoo_rasterizer::Camera;
+use splatzoo_train::avatar::track_joints;
+use splatzoo_train::host_f32;
+use splatzoo_train::views::InitPoints;
+use splatzoo_train::views::people::person_sequence;
+use std::path::Path;
+
+/// The built-in body's ankles and feet (SMPL's joint order).
+const FEET: [usize; 4] = [7, 8, 10, 11];
+
+/// `record`'s image at `size` as sRGB `[H, W, 3]` and its person mask (thresholded at one half
+/// after resizing).
+fn read_frame(record: &ViewRecord, size: (u32, u32)) -> Result<(Vec<f32>, Mask), Prior4dError> {
+    let what = record.image.display().to_string();
+    let picture = image::open(&record.image)
+        .map_err(|e| Prior4dError::input(what.clone(), format!("cannot read ({e})")))?
+        .to_rgb8();
+    let (w, h) = picture.dimensions();
+    if (w, h) != (record.camera.width, record.camera.height) {
+        return Err(Prior4dError::input(
+            what,
+            format!(
+                "a {w}×{h} image for a {}×{} camera (sparse/cameras.txt)",
+                record.camera.width, record.camera.height
+            ),
+        ));
+    }
+    let resized = image::imageops::resize(&picture, size.0, size.1, FilterType::Triangle);
+    let pixels = resized
+        .as_raw()
+        .iter()
+        .map(|&v| f32::from(v) / 255.0)
+        .collect();
+    let no_mask = || Prior4dError::input(what.clone(), "no person mask in segmentations/");
+    let (mw, mh, person) = record
+        .read_mask()
+        .ok_or_else(no_mask)?
+        .map_err(|e| Prior4dError::Train(e.into()))?;
+    if (mw, mh) != (w, h) {
+        return Err(Prior4dError::input(
+            record
+                .mask
+                .as_ref()
+                .map_or(what, |p| p.display().to_string()),
+            format!("a {mw}×{mh} mask for a {w}×{h} image"),
+        ));
+    }
+    let grey: Vec<u8> = person.iter().map(|&p| if p { 255 } else { 0 }).collect();
+    let grey = image::GrayImage::from_raw(w, h, grey).expect("sized above");
+    let grey = image::imageops::resize(&grey, size.0, size.1, FilterType::Triangle);
+    let mask = Mask::new(
+        size.0 as usize,
+        size.1 as usize,
+        grey.as_raw().iter().map(|&v| v >= 128).collect(),
+    );
+    Ok((pixels, mask))
+}
+
+/// `camera` for its image resized to `size`.
+fn resized_camera(camera: &Camera, size: (u32, u32)) -> Camera {
+    let rx = f64::from(size.0) / f64::from(camera.width);
+    let ry = f64::from(size.1) / f64::from(camera.height);
+    Camera {
+        fx: (f64::from(camera.fx) * rx) as f32,
+        fy: (f64::from(camera.fy) * ry) as f32,
+        cx: (f64::from(camera.cx) * rx) as f32,
+        cy: (f64::from(camera.cy) * ry) as f32,
+        width: size.0,
+        height: size.1,
+        ..*camera
+    }
+}
+
+/// The ground rule of the module's documentation: pixels within `0.3 ×` the person's height of
+/// the lowest projected foot point `feet` (camera frame), no higher than the highest ankle,
+/// outside the person mask dilated by 2 pixels.
+pub fn ground_near_feet(camera: &Camera, person: &Mask, feet: &[[f64; 3]]) -> Mask {
+    let (w, h) = (person.width, person.height);
+    let rows: Vec<usize> = (0..h)
+        .filter(|&y| (0..w).any(|x| person.get(x, y)))
+        .collect();
+    let projected: Vec<[f64; 2]> = feet
+        .iter()
+        .filter(|p| p[2] > 1e-6)
+        .map(|p| {
+            [
+                f64::from(camera.fx) * p[0] / p[2] + f64::from(camera.cx),
+                f64::from(camera.fy) * p[1] / p[2] + f64::from(camera.cy),
+            ]
+        })
+        .collect();
+    let (Some(top), Some(bottom), false) = (rows.first(), rows.last(), projected.is_empty()) else {
+        return Mask::empty(w, h);
+    };
+    let radius = 0.3 * (bottom - top + 1) as f64;
+    let highest = projected.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
+    let outside = person.dilate(2);
+    let data = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let (u, v) = (x as f64 + 0.5, y as f64 + 0.5);
+            v >= highest
+                && !outside.get(x, y)
+                && projected
+                    .iter()
+                    .any(|p| (u - p[0]).powi(2) + (v - p[1]).powi(2) <= radius * radius)
+        })
+        .collect();
+    Mask::new(w, h, data)
+}
+
+/// The acting frames' view records: those with a valid body, in name order, and which are held
+/// out.
+fn acting_records<'a>(
+    dataset: &'a Dataset,
+    valid: &[bool],
+    held_out_every: usize,
+) -> Vec<(&'a ViewRecord, bool)> {
+    let test: Option<Vec<&str>> = dataset.splits.get("test").map(|indices| {
+        indices
+            .iter()
+            .map(|&i| dataset.views[i].camera_name.as_str())
+            .collect()
+    });
+    let every = held_out_every.max(2);
+    dataset
+        .views
+        .iter()
+        .filter(|v| valid.get(v.frame).copied().unwrap_or(false))
+        .enumerate()
+        .map(|(k, v)| {
+            let held_out = match &test {
+                Some(names) => names.contains(&v.camera_name.as_str()),
+                None => k % every == every - 1,
+            };
+            (v, held_out)
+        })
+        .collect()
+}
+
+/// Reads the NeuMan folder `root` as a Prior-4D capture (the module's documentation).
+pub fn read_neuman(
+    root: &Path,
+    options: &Prior4dDataConfig,
+    device: &Device,
+) -> Result<Prior4dCapture, Prior4dError> {
+    let dataset = neuman::load(root).map_err(|e| Prior4dError::Train(e.into()))?;
+    let model = &builtin_body().model;
+    let person = person_sequence(&dataset, 0, model, options.capture_betas)
+        .map_err(|e| Prior4dError::Train(e.into()))?;
+    let records = acting_records(&dataset, &person.valid, options.held_out_every);
+    let trained = records.iter().filter(|(_, held)| !held).count();
+    if trained < 2 || trained == records.len() {
+        return Err(Prior4dError::input(
+            root.display().to_string(),
+            format!(
+                "{} frames with a body fit, {trained} to train on: expected at least 2 to \
+                 train on and 1 held out",
+                records.len()
+            ),
+        ));
+    }
+    for (record, _) in &records {
+        let d = record.distortion;
+        if [d.k1, d.k2, d.p1, d.p2, d.k3].iter().any(|&k| k != 0.0) {
+            return Err(Prior4dError::input(
+                root.join("sparse/cameras.txt").display().to_string(),
+                format!(
+                    "{}: a distorted camera; undistort the images first (NeuMan's preprocessing \
+                     gives PINHOLE cameras)",
+                    record.camera_name
+                ),
+            ));
+        }
+    }
+    let first = &records[0].0.camera;
+    let width = options.width;
+    let height = ((f64::from(first.height) * f64::from(width) / f64::from(first.width)).round()
+        as u32)
+        .max(1);
+    let frames: Vec<usize> = records.iter().map(|(r, _)| r.frame).collect();
+    let cameras: Vec<Camera> = records
+        .iter()
+        .map(|(r, _)| resized_camera(&r.camera, (width, height)))
+        .collect();
+    let metre_cameras: Vec<Camera> = cameras
+        .iter()
+        .map(|c| scaled_camera(c, person.world_scale))
+        .collect();
+    let world_track = person.sequence.frames_subset(&frames);
+    let acting_prior = to_camera_space(&world_track, &metre_cameras, model);
+    let joints = host_f32(&track_joints(model, &acting_prior, device));
+    let joint_count = model.joint_count();
+
+    let (w, h) = (width as usize, height as usize);
+    let mut acting = Vec::with_capacity(records.len());
+    let mut eval = Vec::new();
+    let mut background = ([0.0f64; 3], 0usize);
+    for (t, ((record, held_out), camera)) in records.iter().zip(&cameras).enumerate() {
+        let (pixels, mask) = read_frame(record, (width, height))?;
+        if mask.area() == 0 {
+            return Err(Prior4dError::input(
+                record.mask.as_ref().map_or_else(
+                    || record.image.display().to_string(),
+                    |p| p.display().to_string(),
+                ),
+                "no person pixel (NeuMan's helper asserts one)",
+            ));
+        }
+        for (k, &p) in mask.data.iter().enumerate() {
+            if !p {
+                for c in 0..3 {
+                    background.0[c] += f64::from(pixels[3 * k + c]);
+                }
+                background.1 += 1;
+            }
+        }
+        let feet: Vec<[f64; 3]> = FEET
+            .iter()
+            .map(|&j| {
+                let base = 3 * (t * joint_count + j);
+                [0, 1, 2].map(|c| f64::from(joints[base + c]))
+            })
+            .collect();
+        let ground = ground_near_feet(camera, &mask, &feet);
+        let image = Tensor::<3>::from_data(TensorData::new(pixels, [h, w, 3]), device);
+        if *held_out {
+            eval.push(EvalFrame {
+                acting_frame: t,
+                camera: *camera,
+                image: image.clone(),
+                mask: mask.clone(),
+                normals: None,
+            });
+        }
+        acting.push(ActingFrame {
+            camera: *camera,
+            image,
+            mask: super::sensors::mask_tensor(&mask, device),
+            normals: None,
+            held_out: *held_out,
+            ground,
+            mono_inverse_depth: Tensor::zeros([h, w], device),
+            depth: vec![f32::INFINITY; w * h],
+        });
+    }
+    let points = InitPoints::from_sparse(&dataset.points)
+        .thinned(options.scene_points, options.seed ^ 0x9414_0002);
+    let n = background.1.max(1) as f64;
+    let mut decisions = vec![format!(
+        "NeuMan capture {}: {} acting frames with a body fit ({} held out for the scores{}), \
+         {}×{}, {} COLMAP points; NeuMan's alignment puts σ near {:.4} (its own estimate, not \
+         a truth)",
+        root.display(),
+        acting.len(),
+        eval.len(),
+        if dataset.splits.contains_key("test") {
+            ": test_split.txt"
+        } else {
+            ""
+        },
+        width,
+        height,
+        points.len(),
+        1.0 / person.world_scale
+    )];
+    decisions.extend(person.notes.iter().map(|note| format!("body fit: {note}")));
+    decisions.push(
+        "not in a NeuMan capture: normal maps, monocular depth (stage A's depth term compares \
+         nothing), 2-D keypoints, the scene and human scans, any truth (no σ*, camera, MPJPE \
+         or floor scores); ground pixels by the feet rule (data::neuman)"
+            .to_owned(),
+    );
+    Ok(Prior4dCapture {
+        scene_scan: Vec::new(),
+        scene_points: points.clone(),
+        acting_points: points,
+        scene_background: background.0.map(|v| (v / n) as f32),
+        human_scan: Vec::new(),
+        scan_prior: world_track.frames_subset(&[]),
+        scan_background: [0.0; 3],
+        acting,
+        acting_cameras: CameraSource::Estimated,
+        acting_prior,
+        acting_keypoints: Vec::new(),
+        eval,
+        truth: None,
+        fps: world_track.fps.unwrap_or(30.0),
+        decisions,
+    })
+}
