@@ -14,7 +14,7 @@
 //!   nothing to that body, so the rest shape is used unless `data.capture_betas` (stage D
 //!   refines the shape either way).
 //! - **held-out frames** for the scores (the capture has no synchronised evaluation camera):
-//!   NeuMan's `test_split.txt` where it exists, else every `data.held_out_every`-th frame. No
+//!   NeuMan's `test_split.txt` where it names a frame, else every `data.held_out_every`-th frame. No
 //!   stage trains on their pixels; the body is placed there from the prior
 //!   ([`super::ActingFrame::held_out`]).
 //! - **the scene prior's points**: COLMAP's sparse points, at most `data.scene_points`.
@@ -147,6 +147,11 @@ pub fn ground_near_feet(camera: &Camera, person: &Mask, feet: &[[f64; 3]]) -> Ma
     Mask::new(w, h, data)
 }
 
+/// NeuMan's test split, where the folder names one with a frame in it.
+fn test_split(dataset: &Dataset) -> Option<&Vec<usize>> {
+    dataset.splits.get("test").filter(|indices| !indices.is_empty())
+}
+
 /// The acting frames' view records: those with a valid body, in name order, and which are held
 /// out.
 fn acting_records<'a>(
@@ -154,7 +159,7 @@ fn acting_records<'a>(
     valid: &[bool],
     held_out_every: usize,
 ) -> Vec<(&'a ViewRecord, bool)> {
-    let test: Option<Vec<&str>> = dataset.splits.get("test").map(|indices| {
+    let test: Option<Vec<&str>> = test_split(dataset).map(|indices| {
         indices
             .iter()
             .map(|&i| dataset.views[i].camera_name.as_str())
@@ -292,7 +297,7 @@ pub fn read_neuman(
         root.display(),
         acting.len(),
         eval.len(),
-        if dataset.splits.contains_key("test") {
+        if test_split(&dataset).is_some() {
             ": test_split.txt"
         } else {
             ""

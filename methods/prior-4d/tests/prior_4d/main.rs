@@ -3,13 +3,14 @@
 //! rendered normals against analytic ones, the pose-dependent offsets' place in Eq. 2, and
 //! stage C's keypoint fit ([`keypoints`]), and the priors taken from the acting video
 //! ([`sources`]); stage D on every backend ([`backends`]) and from user `.ply` files
-//! ([`start_from_ply`]).
+//! ([`start_from_ply`]); a NeuMan folder read as the acting video ([`neuman`]).
 
 mod backends;
 mod data;
 mod extremes;
 mod geometry;
 mod keypoints;
+mod neuman;
 mod objective;
 mod offsets;
 mod plane;
