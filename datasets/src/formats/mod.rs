@@ -4,7 +4,8 @@
 //! parameters per frame, with the frames where the person is valid), and [`Dataset`].
 //!
 //! Each format module writes down, beside the code, every conversion from its conventions to
-//! ours. So far: NeuMan ([`neuman`], over a COLMAP text model, [`colmap`]), COLMAP scene
+//! ours. So far: NeuMan ([`neuman`], over a COLMAP text model, [`colmap`]; and written by
+//! [`neuman_writer`], so a synthetic capture can take NeuMan's path), COLMAP scene
 //! folders as 3DGS reads them ([`colmap_scene`], text or binary models, [`colmap_binary`]),
 //! ZJU-MoCap in its original and refined layouts ([`zju`]), PeopleSnapshot in InstantAvatar's
 //! npz form ([`people_snapshot`]), THuman2.0 renders of the GHG protocol ([`ghg`]),
@@ -22,6 +23,7 @@ pub mod colmap_scene;
 pub mod drivestudio;
 pub mod ghg;
 pub mod neuman;
+pub mod neuman_writer;
 pub mod people_snapshot;
 pub mod synthetic;
 pub mod zju;

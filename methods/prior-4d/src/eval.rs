@@ -14,8 +14,9 @@
 //!
 //! A real capture has no evaluation camera and no truth: it is scored at its held-out acting
 //! frames ([`crate::data::ActingFrame::held_out`]), each seen from its own (given) camera with
-//! the body placed there from the prior, against its given person mask; the normal error and
-//! the truth scores are then `None`.
+//! the body placed there from the prior, against its given person mask; the truth scores are
+//! then `None`, and the normal error is against the given normal maps where it has some
+//! (`None` without).
 
 use crate::avatar::posed_avatar;
 use crate::camera::{RigidFrame, camera_to_world};
@@ -166,10 +167,16 @@ impl JointStage {
                 let truth = eval.mask.data[k];
                 inter += usize::from(ours && truth);
                 union += usize::from(ours || truth);
-                if let (true, Some(normals)) = (truth, &eval.normals) {
+                // A zero normal is unknown there (a given map's gaps; never on the truth's).
+                let known = eval
+                    .normals
+                    .as_ref()
+                    .map(|normals| normals[k].map(f64::from));
+                if let (true, Some(m)) = (truth, known)
+                    && m.iter().map(|v| v * v).sum::<f64>() > 1e-12
+                {
                     let n = [0, 1, 2].map(|c| f64::from(normal[3 * k + c]));
                     let covered = n.iter().map(|v| v * v).sum::<f64>() >= 0.01;
-                    let m = normals[k].map(f64::from);
                     angles.push(if covered { angle_degrees(n, m) } else { 90.0 });
                 }
             }

@@ -121,6 +121,7 @@ impl Prior4d {
         let scene = SceneStage::new(&capture, &config.scene, config.seed, device)?;
         let avatar = AvatarStage::new(&capture, &model, &config.avatar, config.seed, device)?;
         let mut decisions = capture.decisions.clone();
+        let trained = capture.trained_indices().len();
         let scene_start = match &config.scene.initial_ply {
             Some(path) => format!(
                 "from {} ({} Gaussians)",
@@ -136,7 +137,7 @@ impl Prior4d {
         decisions.push(format!(
             "stage A: scene prior {scene_start}, {} steps on {} views ({} held out); stage B: \
              avatar prior of {} Gaussians ({avatar_start}, {} subdivision(s)), {} steps on {} \
-             views ({} held out); stage D on {} acting frames",
+             views ({} held out); stage D on {} acting frames{}",
             config.scene.steps,
             scene.train.len(),
             scene.test.len(),
@@ -145,7 +146,15 @@ impl Prior4d {
             config.avatar.steps,
             avatar.train.len(),
             avatar.test.len(),
-            capture.acting.len()
+            trained,
+            if trained < capture.acting.len() {
+                format!(
+                    " ({} held out for the scores)",
+                    capture.acting.len() - trained
+                )
+            } else {
+                String::new()
+            }
         ));
         Ok(Self {
             config,

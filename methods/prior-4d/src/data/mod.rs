@@ -25,6 +25,7 @@
 //! `pose_clothing` it also moves with the pose (bunching at bent knees, a hem flaring with the
 //! stride), which only ΔV_pose can represent.
 
+pub mod given;
 pub mod neuman;
 pub mod occluder;
 mod sensors;

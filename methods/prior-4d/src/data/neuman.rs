@@ -22,18 +22,26 @@
 //!   and feet projected into each frame, a disc of 0.3 × the person mask's height, below the
 //!   ankles and outside the person: the floor she stands on, whatever the scene's scale
 //!   (projection needs none).
-//! - **not given**: normal maps, monocular depth, 2-D keypoints, the scene and human scans,
-//!   any truth. The trainer turns off what needs them and says so
-//!   ([`crate::method::Prior4dMethod`]'s decisions).
+//! - **the other external priors**, where the user gives them beside the images
+//!   ([`super::given`]): 2-D keypoints, normal maps, monocular depth (its affine map fitted to
+//!   the COLMAP points' depth in that frame), ground masks (in place of the rule above).
+//! - **never given**: the scene and human scans, any truth. The trainer turns off what needs a
+//!   missing input and says so (`Prior4d`'s decisions).
 
+use super::given::{
+    GROUND, KEYPOINTS, MONO_DEPTH, NORMALS, given_file, read_body25, read_ground, read_mono_depth,
+    read_normals, sparse_depth, write_given,
+};
 use super::{
     ActingFrame, CameraSource, EvalFrame, Prior4dCapture, Prior4dDataConfig, to_camera_space,
 };
 use crate::data::sensors::scaled_camera;
 use crate::error::Prior4dError;
 use burn::tensor::{Device, Tensor, TensorData};
+use glam::{DMat3, DVec3};
 use image::imageops::FilterType;
-use splatzoo_datasets::formats::{Dataset, ViewRecord, neuman};
+use splatzoo_datasets::formats::neuman_writer::{NeumanFrame, frame_name, write_neuman_scene};
+use splatzoo_datasets::formats::{Dataset, Similarity, SparsePoint, ViewRecord, neuman};
 use splatzoo_datasets::masks::Mask;
 use splatzoo_models::body::builtin_body;
 use splatzoo_rasterizer::Camera;
@@ -149,7 +157,10 @@ pub fn ground_near_feet(camera: &Camera, person: &Mask, feet: &[[f64; 3]]) -> Ma
 
 /// NeuMan's test split, where the folder names one with a frame in it.
 fn test_split(dataset: &Dataset) -> Option<&Vec<usize>> {
-    dataset.splits.get("test").filter(|indices| !indices.is_empty())
+    dataset
+        .splits
+        .get("test")
+        .filter(|indices| !indices.is_empty())
 }
 
 /// The acting frames' view records: those with a valid body, in name order, and which are held
@@ -236,6 +247,13 @@ pub fn read_neuman(
     let joint_count = model.joint_count();
 
     let (w, h) = (width as usize, height as usize);
+    let size = (w, h);
+    let all_points: Vec<[f32; 3]> = dataset
+        .points
+        .iter()
+        .map(|(p, _)| p.map(|v| v as f32))
+        .collect();
+    let mut keypoints = Vec::new();
     let mut acting = Vec::with_capacity(records.len());
     let mut eval = Vec::new();
     let mut background = ([0.0f64; 3], 0usize);
@@ -265,7 +283,25 @@ pub fn read_neuman(
                 [0, 1, 2].map(|c| f64::from(joints[base + c]))
             })
             .collect();
-        let ground = ground_near_feet(camera, &mask, &feet);
+        let full = (record.camera.width as usize, record.camera.height as usize);
+        let ground = match given_file(root, GROUND, record, ".png") {
+            Some(path) => read_ground(&path, full, size)?,
+            None => ground_near_feet(camera, &mask, &feet),
+        };
+        if let Some(path) = given_file(root, KEYPOINTS, record, "_keypoints.json") {
+            let scale = (w as f64 / full.0 as f64, h as f64 / full.1 as f64);
+            keypoints.push(read_body25(&path, scale)?);
+        }
+        let normals = given_file(root, NORMALS, record, ".npy")
+            .map(|path| read_normals(&path, full, size, &mask))
+            .transpose()?;
+        let (mono, depth) = match given_file(root, MONO_DEPTH, record, ".npy") {
+            Some(path) => (
+                read_mono_depth(&path, full, size)?,
+                sparse_depth(camera, &all_points),
+            ),
+            None => (vec![0.0; w * h], vec![f32::INFINITY; w * h]),
+        };
         let image = Tensor::<3>::from_data(TensorData::new(pixels, [h, w, 3]), device);
         if *held_out {
             eval.push(EvalFrame {
@@ -273,18 +309,20 @@ pub fn read_neuman(
                 camera: *camera,
                 image: image.clone(),
                 mask: mask.clone(),
-                normals: None,
+                normals: normals
+                    .as_ref()
+                    .map(|n| n.chunks(3).map(|c| [c[0], c[1], c[2]]).collect()),
             });
         }
         acting.push(ActingFrame {
             camera: *camera,
             image,
             mask: super::sensors::mask_tensor(&mask, device),
-            normals: None,
+            normals: normals.map(|n| Tensor::from_data(TensorData::new(n, [h, w, 3]), device)),
             held_out: *held_out,
             ground,
-            mono_inverse_depth: Tensor::zeros([h, w], device),
-            depth: vec![f32::INFINITY; w * h],
+            mono_inverse_depth: Tensor::from_data(TensorData::new(mono, [h, w]), device),
+            depth,
         });
     }
     let points = InitPoints::from_sparse(&dataset.points)
@@ -308,12 +346,38 @@ pub fn read_neuman(
         1.0 / person.world_scale
     )];
     decisions.extend(person.notes.iter().map(|note| format!("body fit: {note}")));
-    decisions.push(
-        "not in a NeuMan capture: normal maps, monocular depth (stage A's depth term compares \
-         nothing), 2-D keypoints, the scene and human scans, any truth (no σ*, camera, MPJPE \
-         or floor scores); ground pixels by the feet rule (data::neuman)"
-            .to_owned(),
-    );
+    let given = |folder: &str| root.join(folder).is_dir();
+    let mut lacking: Vec<&str> = [
+        (NORMALS, "normal maps"),
+        (
+            MONO_DEPTH,
+            "monocular depth (stage A's depth term then compares nothing)",
+        ),
+        (KEYPOINTS, "2-D keypoints"),
+    ]
+    .iter()
+    .filter(|(folder, _)| !given(folder))
+    .map(|(_, what)| *what)
+    .collect();
+    lacking.extend([
+        "the scene and human scans",
+        "any truth (no σ*, camera, MPJPE or floor scores)",
+    ]);
+    decisions.push(format!(
+        "given beside the images (data::given): {}; not given: {}; ground pixels {}",
+        [KEYPOINTS, NORMALS, MONO_DEPTH, GROUND]
+            .iter()
+            .filter(|folder| given(folder))
+            .map(|folder| format!("{folder}/"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        lacking.join(", "),
+        if given(GROUND) {
+            "from ground/"
+        } else {
+            "by the feet rule"
+        }
+    ));
     Ok(Prior4dCapture {
         scene_scan: Vec::new(),
         scene_points: points.clone(),
@@ -325,10 +389,89 @@ pub fn read_neuman(
         acting,
         acting_cameras: CameraSource::Estimated,
         acting_prior,
-        acting_keypoints: Vec::new(),
+        acting_keypoints: keypoints,
         eval,
         truth: None,
         fps: world_track.fps.unwrap_or(30.0),
         decisions,
     })
+}
+
+/// NeuMan's fits carry SMPL's 10 shape coefficients.
+pub const NEUMAN_BETAS: usize = 10;
+
+/// Writes the synthetic `capture`'s acting video as a NeuMan scene under `root`
+/// (`splatzoo_datasets::formats::neuman_writer`), frames `test` listed as its test split: its
+/// images, person masks, SfM cameras (COLMAP's world = scene units), acting points, and the
+/// camera-space body prior `x_c = R_c (x − J₀) + J₀ + t_c` (metres) as SMPL's pose (global
+/// orientation `R_c`, no translation; the first [`NEUMAN_BETAS`] shape coefficients) with the
+/// alignment `s = σ*`, `R = R_wcᵀ`, `t = σ* R_wcᵀ t_c − R_wcᵀ T_wc`, which puts the body where
+/// the camera `[R_wc | T_wc]` films it. [`read_neuman`] reads back the same cameras, masks,
+/// images (to 8 bits) and camera-space prior (its further shape coefficients zeroed). With
+/// `with_given`, the capture's noisy keypoints, normal maps, monocular depth and ground masks
+/// go beside them ([`super::given`]).
+pub fn write_acting_as_neuman(
+    capture: &Prior4dCapture,
+    root: &Path,
+    test: &[usize],
+    with_given: bool,
+) -> Result<(), Prior4dError> {
+    let truth = capture.truth.as_ref().ok_or_else(|| {
+        Prior4dError::input(
+            "capture",
+            "only the synthetic capture knows the scale its body is placed at",
+        )
+    })?;
+    let sigma = truth.scale;
+    let prior = &capture.acting_prior;
+    if prior.joints != 24 || prior.shape_count < NEUMAN_BETAS {
+        return Err(Prior4dError::input(
+            "acting prior",
+            format!(
+                "{} joints and {} shape coefficients; NeuMan's SMPL fits take 24 and {NEUMAN_BETAS}",
+                prior.joints, prior.shape_count
+            ),
+        ));
+    }
+    let frames: Vec<NeumanFrame> = capture
+        .acting
+        .iter()
+        .enumerate()
+        .map(|(t, frame)| {
+            let m = frame.camera.world_to_camera;
+            let r = DMat3::from_cols_array_2d(
+                &[0, 1, 2].map(|j| [0, 1, 2].map(|i| f64::from(m[i][j]))),
+            );
+            let big_t = DVec3::new(f64::from(m[0][3]), f64::from(m[1][3]), f64::from(m[2][3]));
+            let t_c = DVec3::from(prior.translation(t));
+            let rt = r.transpose();
+            NeumanFrame {
+                camera: frame.camera,
+                rgb: host_f32(&frame.image)
+                    .iter()
+                    .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+                    .collect(),
+                person: host_f32(&frame.mask).iter().map(|&m| m > 0.5).collect(),
+                pose: prior.pose(t).to_vec(),
+                betas: prior.frame_betas(t)[..NEUMAN_BETAS].to_vec(),
+                alignment: Similarity {
+                    scale: sigma,
+                    rotation: [0, 1, 2].map(|i| rt.row(i).to_array()),
+                    translation: (sigma * (rt * t_c) - rt * big_t).to_array(),
+                },
+            }
+        })
+        .collect();
+    let points: Vec<SparsePoint> = capture
+        .acting_points
+        .positions
+        .iter()
+        .zip(&capture.acting_points.colours)
+        .map(|(p, c)| (p.map(f64::from), *c))
+        .collect();
+    write_neuman_scene(root, &frames, &points, test).map_err(|e| Prior4dError::Train(e.into()))?;
+    if with_given {
+        write_given(capture, root, frame_name)?;
+    }
+    Ok(())
 }

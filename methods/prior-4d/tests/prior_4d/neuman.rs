@@ -1,7 +1,7 @@
 //! A real capture's path (`data.capture`): the synthetic acting video written as NeuMan's
-//! preprocessing leaves a scene (`splatzoo_datasets::fixtures::write_neuman_scene`: COLMAP text
-//! model, images, segmentations, SMPL fits and alignments placing the camera-space body in
-//! COLMAP's world at the scene's scale), read back as Prior-4D's acting video with its own
+//! preprocessing leaves a scene (`write_acting_as_neuman`: COLMAP text model, images,
+//! segmentations, SMPL fits and alignments placing the camera-space body in COLMAP's world at
+//! the scene's scale), read back as Prior-4D's acting video with its own
 //! scene. What is read is known exactly: the cameras, the camera-space body prior, the masks;
 //! the feet rule's ground pixels land on the true floor; the four stages run on it with the
 //! truth scores absent; bad folders are named.
@@ -10,11 +10,9 @@ use crate::data::tiny_capture;
 use crate::trainer::into_stage_d;
 use crate::values;
 use burn::tensor::Device;
-use glam::{DMat3, DVec3};
-use splatzoo_datasets::fixtures::{NeumanFrame, write_neuman_scene};
-use splatzoo_datasets::formats::Similarity;
 use splatzoo_models::body::builtin_body;
 use splatzoo_prior_4d::Prior4d;
+use splatzoo_prior_4d::data::neuman::{NEUMAN_BETAS, write_acting_as_neuman};
 use splatzoo_prior_4d::data::{Prior4dCapture, Prior4dDataConfig};
 use splatzoo_train::avatar::track_joints;
 use splatzoo_train::harness::Method;
@@ -24,67 +22,19 @@ use std::path::Path;
 /// The held-out frames the test split names.
 const TEST: [usize; 2] = [2, 5];
 
-/// NeuMan's fits carry SMPL's 10 shape coefficients; the built-in body has more.
-const SMPL_BETAS: usize = 10;
-
 /// `capture`'s prior with the shape coefficients NeuMan cannot carry zeroed (what reads back).
 fn smpl_shaped(capture: &mut Prior4dCapture) {
     let prior = &mut capture.acting_prior;
     let s = prior.shape_count;
     for (k, beta) in prior.betas.iter_mut().enumerate() {
-        if k % s >= SMPL_BETAS {
+        if k % s >= NEUMAN_BETAS {
             *beta = 0.0;
         }
     }
 }
 
-fn rotation(m: &[[f32; 4]; 3]) -> DMat3 {
-    DMat3::from_cols_array_2d(&[0, 1, 2].map(|j| [0, 1, 2].map(|i| f64::from(m[i][j]))))
-}
-
-/// `capture`'s acting video as a NeuMan scene: the camera-space prior `x_c = R_c (x − J₀) +
-/// J₀ + t_c` (metres) becomes SMPL's pose (global orientation `R_c`, no translation) and the
-/// alignment `s = σ`, `R = R_wcᵀ`, `t = σ R_wcᵀ t_c − R_wcᵀ T_wc`, which puts it where the
-/// camera `[R_wc | T_wc]` (scene units) films it.
 fn write_as_neuman(capture: &Prior4dCapture, root: &Path) {
-    let sigma = capture.truth.as_ref().expect("synthetic").scale;
-    let prior = &capture.acting_prior;
-    let frames: Vec<NeumanFrame> = capture
-        .acting
-        .iter()
-        .enumerate()
-        .map(|(t, frame)| {
-            let r = rotation(&frame.camera.world_to_camera);
-            let m = frame.camera.world_to_camera;
-            let big_t = DVec3::new(f64::from(m[0][3]), f64::from(m[1][3]), f64::from(m[2][3]));
-            let t_c = DVec3::from(prior.translation(t));
-            let translation = sigma * (r.transpose() * t_c) - r.transpose() * big_t;
-            let rt = r.transpose();
-            NeumanFrame {
-                camera: frame.camera,
-                rgb: values(frame.image.clone())
-                    .iter()
-                    .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
-                    .collect(),
-                person: values(frame.mask.clone()).iter().map(|&m| m > 0.5).collect(),
-                pose: prior.pose(t).to_vec(),
-                betas: prior.frame_betas(t)[..SMPL_BETAS].to_vec(),
-                alignment: Similarity {
-                    scale: sigma,
-                    rotation: [0, 1, 2].map(|i| rt.row(i).to_array()),
-                    translation: translation.to_array(),
-                },
-            }
-        })
-        .collect();
-    let points: Vec<([f64; 3], [f32; 3])> = capture
-        .acting_points
-        .positions
-        .iter()
-        .zip(&capture.acting_points.colours)
-        .map(|(p, c)| (p.map(f64::from), *c))
-        .collect();
-    write_neuman_scene(root, &frames, &points, &TEST);
+    write_acting_as_neuman(capture, root, &TEST, false).expect("written");
 }
 
 fn read(root: &Path, width: u32, held_out_every: usize) -> Result<Prior4dCapture, String> {
@@ -136,7 +86,10 @@ fn a_neuman_folder_reads_back_the_cameras_body_and_masks_it_was_written_from() {
             .zip(&ib)
             .map(|(x, y)| (x - y).abs())
             .fold(0.0, f32::max);
-        assert!(worst <= 0.5 / 255.0 + 1e-6, "frame {t}: image off by {worst}");
+        assert!(
+            worst <= 0.5 / 255.0 + 1e-6,
+            "frame {t}: image off by {worst}"
+        );
     }
 
     // The camera-space body through COLMAP's world and NeuMan's alignment and back.
@@ -163,7 +116,10 @@ fn a_neuman_folder_reads_back_the_cameras_body_and_masks_it_was_written_from() {
     }
     assert!(framed >= 5, "ground pixels in {framed} of 6 frames");
     let share = on as f64 / all.max(1) as f64;
-    assert!(share > 0.8, "{share:.3} of the {all} ground pixels on the floor");
+    assert!(
+        share > 0.8,
+        "{share:.3} of the {all} ground pixels on the floor"
+    );
 }
 
 #[test]
@@ -211,7 +167,9 @@ fn bad_neuman_folders_are_named() {
     write_as_neuman(&synthetic, dir.path());
     let mask = dir.path().join("segmentations/00003.png");
     std::fs::remove_file(&mask).unwrap();
-    let error = read(dir.path(), 80, 8).err().expect("a missing mask is refused");
+    let error = read(dir.path(), 80, 8)
+        .err()
+        .expect("a missing mask is refused");
     assert!(
         error.contains("00003.png") && error.contains("mask"),
         "{error}"
@@ -233,7 +191,9 @@ fn bad_neuman_folders_are_named() {
         })
         .collect();
     std::fs::write(&cameras, lines.join("\n")).unwrap();
-    let error = read(dir.path(), 80, 8).err().expect("a distorted camera is refused");
+    let error = read(dir.path(), 80, 8)
+        .err()
+        .expect("a distorted camera is refused");
     assert!(
         error.contains("cameras.txt") && error.contains("00003.png") && error.contains("undistort"),
         "{error}"
@@ -249,6 +209,97 @@ fn bad_neuman_folders_are_named() {
         .filter(|&t| fallback.acting[t].held_out)
         .collect();
     assert_eq!(held, [2, 5]);
-    let error = read(dir.path(), 80, 8).err().expect("nothing held out is refused");
+    let error = read(dir.path(), 80, 8)
+        .err()
+        .expect("nothing held out is refused");
     assert!(error.contains("held out"), "{error}");
+}
+
+/// The synthetic capture's own noisy keypoints, normal maps, monocular depth and ground masks
+/// written beside the NeuMan folder (`data::given`) read back as they were and turn on what
+/// needs them: stage C's keypoint fit, the normal term, the normal score on held-out frames.
+#[test]
+fn given_priors_read_back_and_turn_their_terms_on() {
+    let synthetic = tiny_capture();
+    let dir = tempfile::tempdir().unwrap();
+    write_acting_as_neuman(&synthetic, dir.path(), &TEST, true).expect("written");
+    let real = read(dir.path(), 80, 8).expect("the folder reads");
+    assert_eq!(real.acting_keypoints.len(), real.acting.len());
+    for (t, (a, b)) in real
+        .acting_keypoints
+        .iter()
+        .zip(&synthetic.acting_keypoints)
+        .enumerate()
+    {
+        for (p, q) in a.iter().zip(b) {
+            let d = (0..3).map(|c| (p[c] - q[c]).abs()).fold(0.0, f32::max);
+            assert!(d < 1e-4, "frame {t}: keypoint {p:?} against {q:?}");
+        }
+    }
+    for (t, (a, b)) in real.acting.iter().zip(&synthetic.acting).enumerate() {
+        assert_eq!(a.ground, b.ground, "frame {t}: the ground mask");
+        assert_eq!(
+            values(a.mono_inverse_depth.clone()),
+            values(b.mono_inverse_depth.clone()),
+            "frame {t}: the monocular depth"
+        );
+        let (na, nb) = (
+            values(a.normals.clone().expect("given")),
+            values(b.normals.clone().expect("synthetic")),
+        );
+        let mask = values(a.mask.clone());
+        let mut compared = 0;
+        for k in 0..mask.len() {
+            let (p, q) = (&na[3 * k..3 * k + 3], &nb[3 * k..3 * k + 3]);
+            let lq = q.iter().map(|v| v * v).sum::<f32>().sqrt();
+            if mask[k] > 0.5 && lq > 1e-3 {
+                let cosine = (0..3).map(|c| p[c] * q[c]).sum::<f32>() / lq;
+                assert!(cosine > 0.9999, "frame {t} pixel {k}: cosine {cosine}");
+                compared += 1;
+            } else if mask[k] < 0.5 {
+                assert!(
+                    p.iter().all(|&v| v == 0.0),
+                    "frame {t}: a normal off the person"
+                );
+            }
+        }
+        assert!(compared > 30, "frame {t}: {compared} normals compared");
+        let sparse = a.depth.iter().filter(|d| d.is_finite()).count();
+        assert!(sparse > 50, "frame {t}: {sparse} pixels of sparse depth");
+    }
+    assert!(real.eval.iter().all(|e| e.normals.is_some()));
+
+    let mut config = into_stage_d(8);
+    config.data.capture = Some(dir.path().to_path_buf());
+    config.body_fit.keypoints = true;
+    config.body_fit.iterations = 10;
+    config.joint.eval_stride = 1;
+    let device = Device::flex();
+    let mut method = Prior4d::new(config.clone(), &device).expect("a run on the folder");
+    let decisions = method.decisions().join("\n");
+    assert!(
+        decisions.contains("keypoints/, normals/, mono_depth/, ground/")
+            && decisions.contains("refined on the keypoints")
+            && !decisions.contains("no normal maps"),
+        "{decisions}"
+    );
+    assert!(method.config.joint.normal > 0.0 && method.config.body_fit.keypoints);
+    while method.steps() < config.iterations {
+        assert!(method.step().expect("a step").loss.is_finite());
+    }
+    let scores = method.final_scores(None).expect("scores");
+    let normal = scores
+        .normal_mean_degrees
+        .expect("scored against the given normals");
+    assert!((0.0..=90.0).contains(&normal), "{scores:?}");
+    assert!(scores.truth.is_none());
+
+    // A mis-shaped map is named with the shape expected.
+    let path = dir.path().join("normals/00001.npy");
+    splatzoo_datasets::synth::export::write_npy_f32(&path, &[60, 80], &vec![0.0; 4800]).unwrap();
+    let error = read(dir.path(), 80, 8).err().expect("refused");
+    assert!(
+        error.contains("normals/00001.npy") && error.contains("expected [60, 80, 3]"),
+        "{error}"
+    );
 }
