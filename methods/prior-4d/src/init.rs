@@ -12,7 +12,8 @@ use crate::camera::camera_to_world;
 use crate::data::Prior4dCapture;
 use crate::error::Prior4dError;
 use crate::plane::{Plane, PlaneFit, RansacConfig, ScaleFrame, initial_scale, ransac_plane};
-use splatzoo_rasterizer::Splats;
+use splatzoo_datasets::masks::Mask;
+use splatzoo_rasterizer::{Camera, Splats};
 use splatzoo_train::avatar::project;
 use splatzoo_train::host_f32;
 
@@ -49,7 +50,8 @@ pub struct Initialisation {
 }
 
 /// Centres of the scene's Gaussians at least `min_opacity` opaque seen inside the ground mask
-/// of at least `min_views` scan views.
+/// of at least `min_views` scan views (the acting frames' where no scan view has a ground pixel:
+/// a real scan given without ground masks).
 pub fn ground_points(
     scene: &Splats,
     capture: &Prior4dCapture,
@@ -65,15 +67,27 @@ pub fn ground_points(
         .map(|(p, _)| [p[0], p[1], p[2]])
         .collect();
     let mut hits = vec![0usize; points.len()];
-    for view in &capture.scene_scan {
-        let (w, h) = (view.ground.width, view.ground.height);
-        for (k, (u, v, z)) in project(&view.camera, &points).into_iter().enumerate() {
+    let masked: Vec<(&Camera, &Mask)> = if capture.scene_scan.iter().any(|v| v.ground.area() > 0) {
+        capture
+            .scene_scan
+            .iter()
+            .map(|v| (&v.camera, &v.ground))
+            .collect()
+    } else {
+        capture
+            .trained_frames()
+            .map(|f| (&f.camera, &f.ground))
+            .collect()
+    };
+    for (camera, ground) in masked {
+        let (w, h) = (ground.width, ground.height);
+        for (k, (u, v, z)) in project(camera, &points).into_iter().enumerate() {
             if z > 0.0
                 && u >= 0.0
                 && v >= 0.0
                 && (u as usize) < w
                 && (v as usize) < h
-                && view.ground.get(u as usize, v as usize)
+                && ground.get(u as usize, v as usize)
             {
                 hits[k] += 1;
             }

@@ -25,9 +25,11 @@
 //! `pose_clothing` it also moves with the pose (bunching at bent knees, a hem flaring with the
 //! stride), which only ΔV_pose can represent.
 
+mod frames;
 pub mod given;
 pub mod neuman;
 pub mod occluder;
+pub mod scans;
 mod sensors;
 pub mod textureless;
 
@@ -115,6 +117,10 @@ pub struct Prior4dDataConfig {
     /// On a real capture: keep its fit's shape coefficients (they mean the built-in body's own
     /// only if that is the body it was fitted with).
     pub capture_betas: bool,
+    /// On a real capture: its scene scan and human scan ([`scans`]); without them the priors
+    /// come from the acting video.
+    pub scene_scan: Option<PathBuf>,
+    pub human_scan: Option<PathBuf>,
 }
 
 impl Default for Prior4dDataConfig {
@@ -144,6 +150,8 @@ impl Default for Prior4dDataConfig {
             capture: None,
             held_out_every: 8,
             capture_betas: false,
+            scene_scan: None,
+            human_scan: None,
         }
     }
 }
@@ -161,6 +169,13 @@ impl Prior4dDataConfig {
         }
         if !(self.scene_scale.is_finite() && self.scene_scale > 0.0) {
             return Err(format!("data.scene_scale > 0, got {}", self.scene_scale));
+        }
+        let scans = self.scene_scan.is_some() || self.human_scan.is_some();
+        if scans && self.capture.is_none() {
+            return Err(
+                "data.scene_scan and data.human_scan are a real capture's: give data.capture too"
+                    .into(),
+            );
         }
         if self.held_out_every < 2 {
             return Err(format!(

@@ -25,13 +25,17 @@
 //! - **the other external priors**, where the user gives them beside the images
 //!   ([`super::given`]): 2-D keypoints, normal maps, monocular depth (its affine map fitted to
 //!   the COLMAP points' depth in that frame), ground masks (in place of the rule above).
-//! - **never given**: the scene and human scans, any truth. The trainer turns off what needs a
-//!   missing input and says so (`Prior4d`'s decisions).
+//! - **the scans**, where the user gives them (`data.scene_scan`, `data.human_scan`:
+//!   [`super::scans`]).
+//! - **never given**: any truth. The trainer turns off what needs a missing input and says so
+//!   (`Prior4d`'s decisions).
 
+use super::frames::{read_image, read_person, resized_camera, training_size, undistorted};
 use super::given::{
     GROUND, KEYPOINTS, MONO_DEPTH, NORMALS, given_file, read_body25, read_ground, read_mono_depth,
     read_normals, sparse_depth, write_given,
 };
+use super::scans::{read_human_scan, read_scene_scan};
 use super::{
     ActingFrame, CameraSource, EvalFrame, Prior4dCapture, Prior4dDataConfig, to_camera_space,
 };
@@ -39,7 +43,6 @@ use crate::data::sensors::scaled_camera;
 use crate::error::Prior4dError;
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::{DMat3, DVec3};
-use image::imageops::FilterType;
 use splatzoo_datasets::formats::neuman_writer::{NeumanFrame, frame_name, write_neuman_scene};
 use splatzoo_datasets::formats::{Dataset, Similarity, SparsePoint, ViewRecord, neuman};
 use splatzoo_datasets::masks::Mask;
@@ -53,69 +56,6 @@ use std::path::Path;
 
 /// The built-in body's ankles and feet (SMPL's joint order).
 const FEET: [usize; 4] = [7, 8, 10, 11];
-
-/// `record`'s image at `size` as sRGB `[H, W, 3]` and its person mask (thresholded at one half
-/// after resizing).
-fn read_frame(record: &ViewRecord, size: (u32, u32)) -> Result<(Vec<f32>, Mask), Prior4dError> {
-    let what = record.image.display().to_string();
-    let picture = image::open(&record.image)
-        .map_err(|e| Prior4dError::input(what.clone(), format!("cannot read ({e})")))?
-        .to_rgb8();
-    let (w, h) = picture.dimensions();
-    if (w, h) != (record.camera.width, record.camera.height) {
-        return Err(Prior4dError::input(
-            what,
-            format!(
-                "a {w}×{h} image for a {}×{} camera (sparse/cameras.txt)",
-                record.camera.width, record.camera.height
-            ),
-        ));
-    }
-    let resized = image::imageops::resize(&picture, size.0, size.1, FilterType::Triangle);
-    let pixels = resized
-        .as_raw()
-        .iter()
-        .map(|&v| f32::from(v) / 255.0)
-        .collect();
-    let no_mask = || Prior4dError::input(what.clone(), "no person mask in segmentations/");
-    let (mw, mh, person) = record
-        .read_mask()
-        .ok_or_else(no_mask)?
-        .map_err(|e| Prior4dError::Train(e.into()))?;
-    if (mw, mh) != (w, h) {
-        return Err(Prior4dError::input(
-            record
-                .mask
-                .as_ref()
-                .map_or(what, |p| p.display().to_string()),
-            format!("a {mw}×{mh} mask for a {w}×{h} image"),
-        ));
-    }
-    let grey: Vec<u8> = person.iter().map(|&p| if p { 255 } else { 0 }).collect();
-    let grey = image::GrayImage::from_raw(w, h, grey).expect("sized above");
-    let grey = image::imageops::resize(&grey, size.0, size.1, FilterType::Triangle);
-    let mask = Mask::new(
-        size.0 as usize,
-        size.1 as usize,
-        grey.as_raw().iter().map(|&v| v >= 128).collect(),
-    );
-    Ok((pixels, mask))
-}
-
-/// `camera` for its image resized to `size`.
-fn resized_camera(camera: &Camera, size: (u32, u32)) -> Camera {
-    let rx = f64::from(size.0) / f64::from(camera.width);
-    let ry = f64::from(size.1) / f64::from(camera.height);
-    Camera {
-        fx: (f64::from(camera.fx) * rx) as f32,
-        fy: (f64::from(camera.fy) * ry) as f32,
-        cx: (f64::from(camera.cx) * rx) as f32,
-        cy: (f64::from(camera.cy) * ry) as f32,
-        width: size.0,
-        height: size.1,
-        ..*camera
-    }
-}
 
 /// The ground rule of the module's documentation: pixels within `0.3 ×` the person's height of
 /// the lowest projected foot point `feet` (camera frame), no higher than the highest ankle,
@@ -214,24 +154,11 @@ pub fn read_neuman(
             ),
         ));
     }
+    let model_file = root.join("sparse/cameras.txt");
     for (record, _) in &records {
-        let d = record.distortion;
-        if [d.k1, d.k2, d.p1, d.p2, d.k3].iter().any(|&k| k != 0.0) {
-            return Err(Prior4dError::input(
-                root.join("sparse/cameras.txt").display().to_string(),
-                format!(
-                    "{}: a distorted camera; undistort the images first (NeuMan's preprocessing \
-                     gives PINHOLE cameras)",
-                    record.camera_name
-                ),
-            ));
-        }
+        undistorted(record, &model_file)?;
     }
-    let first = &records[0].0.camera;
-    let width = options.width;
-    let height = ((f64::from(first.height) * f64::from(width) / f64::from(first.width)).round()
-        as u32)
-        .max(1);
+    let (width, height) = training_size(&records[0].0.camera, options.width);
     let frames: Vec<usize> = records.iter().map(|(r, _)| r.frame).collect();
     let cameras: Vec<Camera> = records
         .iter()
@@ -258,16 +185,8 @@ pub fn read_neuman(
     let mut eval = Vec::new();
     let mut background = ([0.0f64; 3], 0usize);
     for (t, ((record, held_out), camera)) in records.iter().zip(&cameras).enumerate() {
-        let (pixels, mask) = read_frame(record, (width, height))?;
-        if mask.area() == 0 {
-            return Err(Prior4dError::input(
-                record.mask.as_ref().map_or_else(
-                    || record.image.display().to_string(),
-                    |p| p.display().to_string(),
-                ),
-                "no person pixel (NeuMan's helper asserts one)",
-            ));
-        }
+        let pixels = read_image(record, (width, height))?;
+        let mask = read_person(record, (width, height))?;
         for (k, &p) in mask.data.iter().enumerate() {
             if !p {
                 for c in 0..3 {
@@ -346,6 +265,29 @@ pub fn read_neuman(
         1.0 / person.world_scale
     )];
     decisions.extend(person.notes.iter().map(|note| format!("body fit: {note}")));
+    let mut scene_scan = Vec::new();
+    let mut scene_points = points.clone();
+    let mut scene_background = background.0.map(|v| (v / n) as f32);
+    if let Some(scan) = &options.scene_scan {
+        (scene_scan, scene_points, scene_background) = read_scene_scan(scan, options, device)?;
+        let grounded = scene_scan.iter().filter(|v| v.ground.area() > 0).count();
+        decisions.push(format!(
+            "scene scan {}: {} views, {} points, ground masks in {grounded}",
+            scan.display(),
+            scene_scan.len(),
+            scene_points.len()
+        ));
+    }
+    let (mut human_scan, mut scan_prior, mut scan_background) =
+        (Vec::new(), world_track.frames_subset(&[]), [0.0; 3]);
+    if let Some(scan) = &options.human_scan {
+        (human_scan, scan_prior, scan_background) = read_human_scan(scan, options, device)?;
+        decisions.push(format!(
+            "human scan {}: {} views with a body fit",
+            scan.display(),
+            human_scan.len()
+        ));
+    }
     let given = |folder: &str| root.join(folder).is_dir();
     let mut lacking: Vec<&str> = [
         (NORMALS, "normal maps"),
@@ -379,13 +321,13 @@ pub fn read_neuman(
         }
     ));
     Ok(Prior4dCapture {
-        scene_scan: Vec::new(),
-        scene_points: points.clone(),
+        scene_scan,
+        scene_points,
         acting_points: points,
-        scene_background: background.0.map(|v| (v / n) as f32),
-        human_scan: Vec::new(),
-        scan_prior: world_track.frames_subset(&[]),
-        scan_background: [0.0; 3],
+        scene_background,
+        human_scan,
+        scan_prior,
+        scan_background,
         acting,
         acting_cameras: CameraSource::Estimated,
         acting_prior,

@@ -3,7 +3,8 @@
 //! rendered normals against analytic ones, the pose-dependent offsets' place in Eq. 2, and
 //! stage C's keypoint fit ([`keypoints`]), and the priors taken from the acting video
 //! ([`sources`]); stage D on every backend ([`backends`]) and from user `.ply` files
-//! ([`start_from_ply`]); a NeuMan folder read as the acting video ([`neuman`]).
+//! ([`start_from_ply`]); a NeuMan folder read as the acting video ([`neuman`]) and the scans
+//! given beside it ([`scans`]).
 
 mod backends;
 mod data;
@@ -14,6 +15,7 @@ mod neuman;
 mod objective;
 mod offsets;
 mod plane;
+mod scans;
 mod sources;
 mod start_from_ply;
 mod trainer;
