@@ -286,7 +286,8 @@ impl Prior4d {
 
 /// Turns off what needs an input the capture lacks (a real one: [`crate::data::neuman`]) and
 /// says so: a prior without its scan comes from the acting video, the keypoint fit needs
-/// keypoints, the normal term normal maps.
+/// keypoints, the normal term normal maps; a capture without truth scores all its held-out
+/// frames.
 fn resolve_missing_inputs(config: &mut Prior4dConfig, capture: &Prior4dCapture) -> Vec<String> {
     let mut decisions = Vec::new();
     if capture.scene_scan.is_empty() && config.scene.source == PriorSource::Scan {
@@ -312,6 +313,12 @@ fn resolve_missing_inputs(config: &mut Prior4dConfig, capture: &Prior4dCapture) 
             "the capture has no 2-D keypoints: stage C keeps the body fit as given \
                         (body_fit.keypoints = false)"
                 .to_owned(),
+        );
+    }
+    if capture.truth.is_none() && config.joint.eval_stride > 1 {
+        config.joint.eval_stride = 1;
+        decisions.push(
+            "a real capture: every held-out frame is scored (joint.eval_stride = 1)".to_owned(),
         );
     }
     if capture.acting.iter().all(|f| f.normals.is_none()) && config.joint.normal > 0.0 {
@@ -480,7 +487,14 @@ impl Method for Prior4d {
                         lpips: scores.lpips,
                     },
                 )
-                .with("scores", "evaluation camera, full image")
+                .with(
+                    "scores",
+                    if self.capture.truth.is_some() {
+                        "evaluation camera, full image"
+                    } else {
+                        "held-out acting frames, full image"
+                    },
+                )
                 .with("joint", serde_json::to_value(&scores).expect("plain data"))
             }
             None => Evaluation::new(

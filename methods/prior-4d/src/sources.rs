@@ -30,6 +30,15 @@ pub enum PriorSource {
     Acting,
 }
 
+/// What a prior from the acting video replaces: its scan's views, or nothing.
+fn replaced(scanned: usize) -> String {
+    if scanned == 0 {
+        "a scan (the capture has none)".to_owned()
+    } else {
+        format!("the {scanned}-view scan")
+    }
+}
+
 impl Prior4dCapture {
     /// Replaces the scene scan and its points by the acting video's; returns the decision.
     pub fn scene_from_acting(&mut self) -> String {
@@ -48,9 +57,10 @@ impl Prior4dCapture {
         self.scene_points = self.acting_points.clone();
         format!(
             "scene prior from the acting video (scene.source = \"acting\"): {} frames and {} of \
-             its points in place of the {scanned}-view scan, the person masked out of the loss",
+             its points in place of {}, the person masked out of the loss",
             self.scene_scan.len(),
-            self.scene_points.len()
+            self.scene_points.len(),
+            replaced(scanned)
         )
     }
 
@@ -76,9 +86,9 @@ impl Prior4dCapture {
         };
         format!(
             "avatar prior from the acting video (avatar.source = \"acting\"): {} frames in \
-             each camera's frame, with the camera-space body prior, in place of the \
-             {scanned}-view human scan",
-            self.human_scan.len()
+             each camera's frame, with the camera-space body prior, in place of {}",
+            self.human_scan.len(),
+            replaced(scanned)
         )
     }
 }

@@ -131,11 +131,12 @@ fn four_stages_run_on_a_neuman_folder_without_truth_scores() {
     config.data.capture = Some(dir.path().to_path_buf());
     config.data.width = 80;
     config.body_fit.keypoints = true;
-    config.joint.eval_stride = 1;
     let device = Device::flex();
     let mut method = Prior4d::new(config.clone(), &device).expect("a run on the folder");
     let decisions = method.decisions().join("\n");
     for expected in [
+        "every held-out frame is scored",
+        "in place of a scan (the capture has none)",
         "no scene scan",
         "no human scan",
         "no 2-D keypoints",
@@ -273,7 +274,6 @@ fn given_priors_read_back_and_turn_their_terms_on() {
     config.data.capture = Some(dir.path().to_path_buf());
     config.body_fit.keypoints = true;
     config.body_fit.iterations = 10;
-    config.joint.eval_stride = 1;
     let device = Device::flex();
     let mut method = Prior4d::new(config.clone(), &device).expect("a run on the folder");
     let decisions = method.decisions().join("\n");
