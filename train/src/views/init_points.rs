@@ -46,6 +46,15 @@ impl InitPoints {
         }
     }
 
+    /// The points as sparse points (positions widened to f64, sRGB colours; the scales dropped).
+    pub fn to_sparse(&self) -> Vec<SparsePoint> {
+        self.positions
+            .iter()
+            .zip(&self.colours)
+            .map(|(p, c)| (p.map(f64::from), *c))
+            .collect()
+    }
+
     /// Sparse points, each with 3DGS's scale: `sqrt(mean d²)` over its three nearest neighbours
     /// (`distCUDA2`), floored at 1e-7 of the cloud's diagonal so duplicates stay finite.
     pub fn from_sparse(points: &[SparsePoint]) -> Self {

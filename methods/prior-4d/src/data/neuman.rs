@@ -44,7 +44,7 @@ use crate::error::Prior4dError;
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::{DMat3, DVec3};
 use splatzoo_datasets::formats::neuman_writer::{NeumanFrame, frame_name, write_neuman_scene};
-use splatzoo_datasets::formats::{Dataset, Similarity, SparsePoint, ViewRecord, neuman};
+use splatzoo_datasets::formats::{Dataset, Similarity, ViewRecord, neuman};
 use splatzoo_datasets::masks::Mask;
 use splatzoo_models::body::builtin_body;
 use splatzoo_rasterizer::Camera;
@@ -404,13 +404,7 @@ pub fn write_acting_as_neuman(
             }
         })
         .collect();
-    let points: Vec<SparsePoint> = capture
-        .acting_points
-        .positions
-        .iter()
-        .zip(&capture.acting_points.colours)
-        .map(|(p, c)| (p.map(f64::from), *c))
-        .collect();
+    let points = capture.acting_points.to_sparse();
     write_neuman_scene(root, &frames, &points, test).map_err(|e| Prior4dError::Train(e.into()))?;
     if with_given {
         write_given(capture, root, frame_name)?;

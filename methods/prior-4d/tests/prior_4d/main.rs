@@ -61,3 +61,33 @@ pub fn values<const D: usize>(t: Tensor<D>) -> Vec<f32> {
         .try_into_vec::<f32>()
         .expect("f32 data")
 }
+
+/// The largest `|a − b|` over two equally long slices.
+pub fn max_abs_difference(a: &[f32], b: &[f32]) -> f32 {
+    assert_eq!(a.len(), b.len(), "compared slices differ in length");
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
+
+/// `a` and `b` agree: size exactly, intrinsics and every world-to-camera entry within `tol`.
+pub fn assert_same_camera(
+    a: &splatzoo_rasterizer::Camera,
+    b: &splatzoo_rasterizer::Camera,
+    tol: f32,
+    what: &str,
+) {
+    assert_eq!((a.width, a.height), (b.width, b.height), "{what}: size");
+    let intrinsics = [a.fx - b.fx, a.fy - b.fy, a.cx - b.cx, a.cy - b.cy];
+    assert!(
+        intrinsics.iter().all(|d| d.abs() < 1e-3),
+        "{what}: intrinsics off by {intrinsics:?}"
+    );
+    for i in 0..3 {
+        for j in 0..4 {
+            let d = (a.world_to_camera[i][j] - b.world_to_camera[i][j]).abs();
+            assert!(d < tol, "{what}: world_to_camera[{i}][{j}] off by {d}");
+        }
+    }
+}

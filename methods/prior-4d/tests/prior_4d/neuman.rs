@@ -8,7 +8,7 @@
 
 use crate::data::tiny_capture;
 use crate::trainer::into_stage_d;
-use crate::values;
+use crate::{assert_same_camera, max_abs_difference, values};
 use burn::tensor::Device;
 use splatzoo_models::body::builtin_body;
 use splatzoo_prior_4d::Prior4d;
@@ -69,23 +69,11 @@ fn a_neuman_folder_reads_back_the_cameras_body_and_masks_it_was_written_from() {
 
     for (t, (a, b)) in real.acting.iter().zip(&synthetic.acting).enumerate() {
         assert!(a.normals.is_none());
-        let (ca, cb) = (&a.camera, &b.camera);
-        assert_eq!((ca.width, ca.height), (cb.width, cb.height));
-        assert!((ca.fx - cb.fx).abs() < 1e-4 && (ca.cy - cb.cy).abs() < 1e-4);
-        for i in 0..3 {
-            for j in 0..4 {
-                let d = (ca.world_to_camera[i][j] - cb.world_to_camera[i][j]).abs();
-                assert!(d < 1e-5, "frame {t}: world_to_camera[{i}][{j}] off by {d}");
-            }
-        }
+        assert_same_camera(&a.camera, &b.camera, 1e-5, &format!("frame {t}"));
         let (ma, mb) = (values(a.mask.clone()), values(b.mask.clone()));
         assert_eq!(ma, mb, "frame {t}: the mask");
         let (ia, ib) = (values(a.image.clone()), values(b.image.clone()));
-        let worst = ia
-            .iter()
-            .zip(&ib)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f32::max);
+        let worst = max_abs_difference(&ia, &ib);
         assert!(
             worst <= 0.5 / 255.0 + 1e-6,
             "frame {t}: image off by {worst}"
@@ -96,11 +84,7 @@ fn a_neuman_folder_reads_back_the_cameras_body_and_masks_it_was_written_from() {
     let model = &builtin_body().model;
     let device = Device::flex();
     let joints = |c: &Prior4dCapture| host_f32(&track_joints(model, &c.acting_prior, &device));
-    let worst = joints(&real)
-        .iter()
-        .zip(joints(&synthetic))
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f32::max);
+    let worst = max_abs_difference(&joints(&real), &joints(&synthetic));
     assert!(worst < 1e-3, "joints off by {worst} m");
 
     // The feet rule: ground pixels in most frames, nearly all on the floor (the synthetic

@@ -5,7 +5,7 @@
 
 use crate::data::tiny_capture;
 use crate::trainer::into_stage_d;
-use crate::values;
+use crate::{assert_same_camera, max_abs_difference, values};
 use burn::tensor::Device;
 use splatzoo_datasets::fixtures::write_point_ply;
 use splatzoo_datasets::formats::Similarity;
@@ -63,13 +63,7 @@ fn write_scene_scan(capture: &Prior4dCapture, root: &Path) {
             time: None,
         });
     }
-    let points: Vec<([f64; 3], [f32; 3])> = capture
-        .scene_points
-        .positions
-        .iter()
-        .zip(&capture.scene_points.colours)
-        .map(|(p, c)| (p.map(f64::from), *c))
-        .collect();
+    let points = capture.scene_points.to_sparse();
     write_point_ply(&root.join("sparse_pc.ply"), &points, false);
     write_transforms_with_points(
         &root.join("transforms.json"),
@@ -148,15 +142,7 @@ fn given_scans_read_back_and_replace_the_acting_video_as_the_priors_source() {
             values(b.mono_inverse_depth.clone()),
         );
         assert_eq!(ma, mb, "scan view {t}: monocular depth");
-        for i in 0..3 {
-            for j in 0..4 {
-                let d = (a.camera.world_to_camera[i][j] - b.camera.world_to_camera[i][j]).abs();
-                assert!(
-                    d < 1e-4,
-                    "scan view {t}: world_to_camera[{i}][{j}] off by {d}"
-                );
-            }
-        }
+        assert_same_camera(&a.camera, &b.camera, 1e-4, &format!("scan view {t}"));
         let finite = a.depth.iter().filter(|d| d.is_finite()).count();
         assert!(
             finite > 50,
@@ -175,24 +161,12 @@ fn given_scans_read_back_and_replace_the_acting_video_as_the_priors_source() {
             values(b.mask.clone()),
             "human view {t}"
         );
-        for i in 0..3 {
-            for j in 0..4 {
-                let d = (a.camera.world_to_camera[i][j] - b.camera.world_to_camera[i][j]).abs();
-                assert!(
-                    d < 1e-4,
-                    "human view {t}: world_to_camera[{i}][{j}] off by {d}"
-                );
-            }
-        }
+        assert_same_camera(&a.camera, &b.camera, 1e-4, &format!("human view {t}"));
     }
     let model = &builtin_body().model;
     let device = Device::flex();
     let joints = |c: &Prior4dCapture| host_f32(&track_joints(model, &c.scan_prior, &device));
-    let worst = joints(&real)
-        .iter()
-        .zip(joints(&synthetic))
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f32::max);
+    let worst = max_abs_difference(&joints(&real), &joints(&synthetic));
     assert!(worst < 1e-3, "the scan's body off by {worst} m");
 
     let mut config = into_stage_d(8);
