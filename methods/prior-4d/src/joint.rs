@@ -72,6 +72,8 @@ pub struct JointStage {
     pub translation_adam: AdamState<2>,
     pub init: Initialisation,
     pub order: EpochOrder,
+    /// The acting frames stage D samples (all but a real capture's held-out ones).
+    trained: Vec<usize>,
     /// Scene units per unit of camera translation.
     pub extent: f64,
     pub sh_degree: u32,
@@ -192,6 +194,7 @@ impl JointStage {
                 sigma0,
             },
             order: EpochOrder::new(config.seed ^ 0xD0D0_0003 ^ j.seed.wrapping_mul(0x9E37_79B9)),
+            trained: capture.trained_indices(),
             extent: scene_extent,
             sh_degree,
             prior_colours,
@@ -304,8 +307,7 @@ impl JointStage {
         steps: usize,
     ) -> Result<JointTerms, Prior4dError> {
         let j = &config.joint;
-        let trained = capture.trained_indices();
-        let t = trained[self.order.next(trained.len())];
+        let t = self.trained[self.order.next(self.trained.len())];
         let frame = &capture.acting[t];
         self.attach_offsets(config, true);
         self.scene.begin_step();

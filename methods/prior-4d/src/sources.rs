@@ -79,11 +79,7 @@ impl Prior4dCapture {
                 mask: frame.mask.clone(),
             })
             .collect();
-        self.scan_prior = if trained.len() == self.acting.len() {
-            prior.clone()
-        } else {
-            prior.frames_subset(&trained)
-        };
+        self.scan_prior = prior.frames_subset(&trained);
         format!(
             "avatar prior from the acting video (avatar.source = \"acting\"): {} frames in \
              each camera's frame, with the camera-space body prior, in place of {}",

@@ -30,7 +30,9 @@
 //! - **never given**: any truth. The trainer turns off what needs a missing input and says so
 //!   (`Prior4d`'s decisions).
 
-use super::frames::{read_image, read_person, resized_camera, training_size, undistorted};
+use super::frames::{
+    ColourSum, read_image, read_person, resized_camera, training_size, undistorted,
+};
 use super::given::{
     GROUND, KEYPOINTS, MONO_DEPTH, NORMALS, given_file, read_body25, read_ground, read_mono_depth,
     read_normals, sparse_depth, write_given,
@@ -175,26 +177,15 @@ pub fn read_neuman(
 
     let (w, h) = (width as usize, height as usize);
     let size = (w, h);
-    let all_points: Vec<[f32; 3]> = dataset
-        .points
-        .iter()
-        .map(|(p, _)| p.map(|v| v as f32))
-        .collect();
+    let all_points = InitPoints::from_sparse(&dataset.points);
     let mut keypoints = Vec::new();
     let mut acting = Vec::with_capacity(records.len());
     let mut eval = Vec::new();
-    let mut background = ([0.0f64; 3], 0usize);
+    let mut background = ColourSum::default();
     for (t, ((record, held_out), camera)) in records.iter().zip(&cameras).enumerate() {
         let pixels = read_image(record, (width, height))?;
         let mask = read_person(record, (width, height))?;
-        for (k, &p) in mask.data.iter().enumerate() {
-            if !p {
-                for c in 0..3 {
-                    background.0[c] += f64::from(pixels[3 * k + c]);
-                }
-                background.1 += 1;
-            }
-        }
+        background.add(&pixels, Some(&mask));
         let feet: Vec<[f64; 3]> = FEET
             .iter()
             .map(|&j| {
@@ -217,7 +208,7 @@ pub fn read_neuman(
         let (mono, depth) = match given_file(root, MONO_DEPTH, record, ".npy") {
             Some(path) => (
                 read_mono_depth(&path, full, size)?,
-                sparse_depth(camera, &all_points),
+                sparse_depth(camera, &all_points.positions),
             ),
             None => (vec![0.0; w * h], vec![f32::INFINITY; w * h]),
         };
@@ -244,9 +235,7 @@ pub fn read_neuman(
             depth,
         });
     }
-    let points = InitPoints::from_sparse(&dataset.points)
-        .thinned(options.scene_points, options.seed ^ 0x9414_0002);
-    let n = background.1.max(1) as f64;
+    let points = all_points.thinned(options.scene_points, options.seed ^ 0x9414_0002);
     let mut decisions = vec![format!(
         "NeuMan capture {}: {} acting frames with a body fit ({} held out for the scores{}), \
          {}×{}, {} COLMAP points; NeuMan's alignment puts σ near {:.4} (its own estimate, not \
@@ -267,7 +256,7 @@ pub fn read_neuman(
     decisions.extend(person.notes.iter().map(|note| format!("body fit: {note}")));
     let mut scene_scan = Vec::new();
     let mut scene_points = points.clone();
-    let mut scene_background = background.0.map(|v| (v / n) as f32);
+    let mut scene_background = background.mean();
     if let Some(scan) = &options.scene_scan {
         (scene_scan, scene_points, scene_background) = read_scene_scan(scan, options, device)?;
         let grounded = scene_scan.iter().filter(|v| v.ground.area() > 0).count();

@@ -15,7 +15,9 @@
 //!   folds the fit's placement into (`splatzoo_train::views::people`: metres, the body its own
 //!   size), with the fit as the scan's body prior.
 
-use super::frames::{read_image, read_person, resized_camera, training_size, undistorted};
+use super::frames::{
+    ColourSum, read_image, read_person, resized_camera, training_size, undistorted,
+};
 use super::given::{GROUND, MONO_DEPTH, given_file, read_ground, read_mono_depth, sparse_depth};
 use super::sensors::{mask_tensor, scaled_camera};
 use super::{HumanScanView, Prior4dDataConfig, SceneScanView};
@@ -43,21 +45,6 @@ fn load(root: &Path, what: &str) -> Result<Dataset, Prior4dError> {
     Ok(dataset)
 }
 
-/// The mean sRGB of `pixels` where `keep` (all of them where `keep` is `None`).
-fn mean_colour(sum: &mut ([f64; 3], usize), pixels: &[f32], keep: Option<&Mask>) {
-    for (k, rgb) in pixels.chunks(3).enumerate() {
-        if keep.is_none_or(|m| !m.data[k]) {
-            (0..3).for_each(|c| sum.0[c] += f64::from(rgb[c]));
-            sum.1 += 1;
-        }
-    }
-}
-
-fn mean(sum: ([f64; 3], usize)) -> [f32; 3] {
-    let n = sum.1.max(1) as f64;
-    sum.0.map(|v| (v / n) as f32)
-}
-
 /// The scene scan at `root`: its views, its points and the mean colour of its images.
 pub fn read_scene_scan(
     root: &Path,
@@ -71,14 +58,8 @@ pub fn read_scene_scan(
             "scene scan: no sparse points to start the scene prior from",
         ));
     }
-    let points = InitPoints::from_sparse(&dataset.points)
-        .thinned(config.scene_points, config.seed ^ 0x9414_0001);
-    let all_points: Vec<[f32; 3]> = dataset
-        .points
-        .iter()
-        .map(|(p, _)| p.map(|v| v as f32))
-        .collect();
-    let mut colour = ([0.0; 3], 0);
+    let all_points = InitPoints::from_sparse(&dataset.points);
+    let mut colour = ColourSum::default();
     let mut views = Vec::with_capacity(dataset.views.len());
     for record in &dataset.views {
         let size = training_size(&record.camera, config.width);
@@ -86,7 +67,7 @@ pub fn read_scene_scan(
         let full = (record.camera.width as usize, record.camera.height as usize);
         let camera = resized_camera(&record.camera, size);
         let pixels = read_image(record, size)?;
-        mean_colour(&mut colour, &pixels, None);
+        colour.add(&pixels, None);
         let ground = match given_file(root, GROUND, record, ".png") {
             Some(path) => read_ground(&path, full, (w, h))?,
             None => Mask::empty(w, h),
@@ -94,7 +75,7 @@ pub fn read_scene_scan(
         let (mono, depth) = match given_file(root, MONO_DEPTH, record, ".npy") {
             Some(path) => (
                 read_mono_depth(&path, full, (w, h))?,
-                sparse_depth(&camera, &all_points),
+                sparse_depth(&camera, &all_points.positions),
             ),
             None => (vec![0.0; w * h], vec![f32::INFINITY; w * h]),
         };
@@ -107,7 +88,8 @@ pub fn read_scene_scan(
             person: None,
         });
     }
-    Ok((views, points, mean(colour)))
+    let points = all_points.thinned(config.scene_points, config.seed ^ 0x9414_0001);
+    Ok((views, points, colour.mean()))
 }
 
 /// The human scan at `root`: each view with a body fit, the fit (one frame per view, metres)
@@ -136,19 +118,19 @@ pub fn read_human_scan(
         ));
     }
     let frames: Vec<usize> = records.iter().map(|r| r.frame).collect();
-    let mut colour = ([0.0; 3], 0);
+    let mut colour = ColourSum::default();
     let mut views = Vec::with_capacity(records.len());
     for record in records {
         let size = training_size(&record.camera, config.width);
         let (w, h) = (size.0 as usize, size.1 as usize);
         let pixels = read_image(record, size)?;
         let mask = read_person(record, size)?;
-        mean_colour(&mut colour, &pixels, Some(&mask));
+        colour.add(&pixels, Some(&mask));
         views.push(HumanScanView {
             camera: scaled_camera(&resized_camera(&record.camera, size), person.world_scale),
             image: Tensor::from_data(TensorData::new(pixels, [h, w, 3]), device),
             mask: mask_tensor(&mask, device),
         });
     }
-    Ok((views, person.sequence.frames_subset(&frames), mean(colour)))
+    Ok((views, person.sequence.frames_subset(&frames), colour.mean()))
 }
