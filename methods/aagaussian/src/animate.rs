@@ -1,9 +1,10 @@
 //! Animation (§3.4 of AAGaussian, U9): the trained canonical avatar, bound to the body surface
 //! ([`crate::binding`]), re-posed zero-shot frame by frame by a pose sequence (a built-in walk
 //! then wave, or a user's AMASS `.npz`) through the body prior's posed mesh, and compared with
-//! the prompted identity's own mesh posed the same way (rendered by the independent CPU renderer): the identity-kept score.
-//! Writes `frame_XXXX.png` (avatar | identity), `animation.gif` and a posed INRIA
-//! `frame_XXXX.ply` per frame.
+//! the prompted identity's own mesh posed the same way (rendered by the independent CPU
+//! renderer): the identity-kept score (none for a user's photo: no identity to pose).
+//! Writes `frame_XXXX.png` (avatar | identity, or the avatar alone), `animation.gif` and a
+//! posed INRIA `frame_XXXX.ply` per frame.
 //!
 //! \[P\] Only the 21 body joints drive the avatar (root orientation, translation and hands
 //! are zeroed, as HumanGaussian's `poses[:, 1:22]`); `root = true` keeps the root orientation.
@@ -12,6 +13,7 @@ use crate::binding::{SurfaceBinding, bind};
 use crate::cameras::orbit_camera;
 use crate::data::PortraitCapture;
 use crate::error::AagError;
+use crate::identities::planar_rgb;
 use crate::trainer::{planar_to_tensor, render_views};
 use burn::tensor::{Device, Tensor};
 use serde::{Deserialize, Serialize};
@@ -133,9 +135,10 @@ pub fn driving_pose(
     Ok(pose)
 }
 
-/// The identity-kept scores of one animation.
+/// The identity-kept scores of one animation: the avatar against the prompted identity posed
+/// alike.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
-pub struct AnimationScores {
+pub struct IdentityKept {
     /// PSNR of the bound avatar in the canonical pose against the identity in that pose.
     pub canonical_psnr: f64,
     /// Per frame, the mean over the scoring cameras.
@@ -145,6 +148,26 @@ pub struct AnimationScores {
     pub mean_ssim: f64,
     /// `canonical_psnr − mean_psnr`: what posing costs (spec T9: ≤ 1.5 dB).
     pub gap_db: f64,
+}
+
+impl IdentityKept {
+    /// `: PSNR to the identity posed alike … (gap … dB)`.
+    pub fn line(&self) -> String {
+        format!(
+            ": PSNR to the identity posed alike {:.2} dB mean, {:.2} dB worst frame, {:.2} dB in \
+             the canonical pose (gap {:.2} dB)",
+            self.mean_psnr, self.min_psnr, self.canonical_psnr, self.gap_db
+        )
+    }
+}
+
+/// One animation: how it was bound and how fast it runs, and the identity-kept scores where
+/// the capture has the synthetic truth.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct AnimationScores {
+    pub frames: usize,
+    #[serde(flatten)]
+    pub identity: Option<IdentityKept>,
     pub gaussians: usize,
     pub culled: usize,
     /// Frames per second of posing and rasterizing one view (no scoring, no files).
@@ -158,7 +181,8 @@ pub struct FrameOutput<'a> {
 }
 
 /// Drives `set` (the canonical avatar of `capture`'s prompted identity) through `sequence`,
-/// scoring each frame against the identity's mesh posed alike; writes frames into `output`.
+/// scoring each frame against the identity's mesh posed alike where the capture has it;
+/// writes frames into `output`.
 pub fn animate(
     set: &GaussianSet,
     capture: &PortraitCapture,
@@ -198,11 +222,9 @@ pub fn animate(
         config,
         &device,
     )?;
-    let mut scores = AnimationScores {
-        canonical_psnr: reference.psnr,
-        gaussians: binding.kept.len(),
-        culled: binding.culled,
-        ..AnimationScores::default()
+    let mut kept = IdentityKept {
+        canonical_psnr: reference.score.map_or(0.0, |s| s.0),
+        ..IdentityKept::default()
     };
     let (mut images, mut seconds, mut ssim_sum) = (Vec::new(), 0.0, 0.0);
     let dataset = |e| AagError::Train(splatzoo_train::TrainError::Dataset(e));
@@ -210,10 +232,14 @@ pub fn animate(
         let pose = driving_pose(sequence, t, config.root)?;
         let frame = score_pose(&binding, &rows, capture, &pose, &cameras, config, &device)?;
         seconds += frame.seconds;
-        scores.frame_psnr.push(frame.psnr);
-        ssim_sum += frame.ssim;
+        if let Some((psnr, ssim)) = frame.score {
+            kept.frame_psnr.push(psnr);
+            ssim_sum += ssim;
+        }
         if let Some(out) = &output {
-            let image = side_by_side(&[srgb_image(&frame.avatar), srgb_image(&frame.truth)]);
+            let mut panels = vec![srgb_image(&frame.avatar)];
+            panels.extend(frame.truth.as_ref().map(srgb_image));
+            let image = side_by_side(&panels);
             write_png(&out.dir.join(format!("frame_{t:04}.png")), &image).map_err(dataset)?;
             if out.ply {
                 write_ply(&out.dir.join(format!("frame_{t:04}.ply")), &frame.posed)
@@ -222,16 +248,23 @@ pub fn animate(
             images.push(image);
         }
     }
-    let n = scores.frame_psnr.len().max(1) as f64;
-    scores.mean_psnr = scores.frame_psnr.iter().sum::<f64>() / n;
-    scores.min_psnr = scores
+    let frames = sequence.frames();
+    let n = kept.frame_psnr.len().max(1) as f64;
+    kept.mean_psnr = kept.frame_psnr.iter().sum::<f64>() / n;
+    kept.min_psnr = kept
         .frame_psnr
         .iter()
         .copied()
         .fold(f64::INFINITY, f64::min);
-    scores.mean_ssim = ssim_sum / n;
-    scores.gap_db = scores.canonical_psnr - scores.mean_psnr;
-    scores.fps = n / seconds.max(1e-9);
+    kept.mean_ssim = ssim_sum / n;
+    kept.gap_db = kept.canonical_psnr - kept.mean_psnr;
+    let scores = AnimationScores {
+        frames,
+        identity: reference.score.is_some().then_some(kept),
+        gaussians: binding.kept.len(),
+        culled: binding.culled,
+        fps: frames.max(1) as f64 / seconds.max(1e-9),
+    };
     if let Some(out) = &output {
         let fps = config.fps.round().max(1.0) as u32;
         write_gif(&out.dir.join("animation.gif"), &images, fps).map_err(dataset)?;
@@ -239,20 +272,21 @@ pub fn animate(
     Ok(scores)
 }
 
-/// One scored frame.
+/// One posed frame.
 struct PosedFrame {
     posed: GaussianSet,
-    /// The first camera's avatar render and the identity's, `[H, W, 3]`.
+    /// The first camera's avatar render and the identity's (where the capture has it),
+    /// `[H, W, 3]`.
     avatar: Tensor<3>,
-    truth: Tensor<3>,
-    psnr: f64,
-    ssim: f64,
+    truth: Option<Tensor<3>>,
+    /// Mean PSNR and SSIM over the cameras against the identity posed alike.
+    score: Option<(f64, f64)>,
     /// Posing the Gaussians and rasterizing one view.
     seconds: f64,
 }
 
-/// The avatar (`rows`, canonical) posed by `binding` against the prompted identity posed
-/// alike: mean PSNR and SSIM over `cameras`.
+/// The avatar (`rows`, canonical) posed by `binding`, against the prompted identity posed
+/// alike where the capture has it: mean PSNR and SSIM over `cameras`.
 fn score_pose(
     binding: &SurfaceBinding,
     rows: &GaussianRows,
@@ -263,7 +297,6 @@ fn score_pose(
     device: &Device,
 ) -> Result<PosedFrame, AagError> {
     let label = capture.config.prompt;
-    let vertices = capture.posed_vertices(label, pose, device);
     let body = capture.posed_body(pose, device);
     let start = Instant::now();
     let posed = GaussianSet::from_rows(
@@ -277,21 +310,32 @@ fn score_pose(
         .collect();
     let seconds = start.elapsed().as_secs_f64() / cameras.len() as f64;
     let size = config.size as usize;
+    let (Some(truth), Some(vertices)) = (
+        capture.truth.as_ref(),
+        capture.posed_vertices(label, pose, device),
+    ) else {
+        return Ok(PosedFrame {
+            posed,
+            avatar: images[0].clone(),
+            truth: None,
+            score: None,
+            seconds,
+        });
+    };
     let (mut psnr_sum, mut ssim_sum, mut truths) = (0.0, 0.0, Vec::new());
     for (image, camera) in images.iter().zip(cameras) {
-        let truth = capture.bank.render_posed(label, &vertices, camera);
-        let truth = planar_to_tensor(&crate::data::planar_rgb(&truth), size, device);
-        psnr_sum += psnr(image.clone(), truth.clone());
-        ssim_sum += scalar(ssim(image.clone(), truth.clone()));
-        truths.push(truth);
+        let target = truth.bank.render_posed(label, &vertices, camera);
+        let target = planar_to_tensor(&planar_rgb(&target), size, device);
+        psnr_sum += psnr(image.clone(), target.clone());
+        ssim_sum += scalar(ssim(image.clone(), target.clone()));
+        truths.push(target);
     }
     let views = cameras.len() as f64;
     Ok(PosedFrame {
         posed,
         avatar: images[0].clone(),
-        truth: truths.swap_remove(0),
-        psnr: psnr_sum / views,
-        ssim: ssim_sum / views,
+        truth: Some(truths.swap_remove(0)),
+        score: Some((psnr_sum / views, ssim_sum / views)),
         seconds,
     })
 }

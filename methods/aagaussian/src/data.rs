@@ -1,40 +1,41 @@
-//! The embedded default (spec §7, preset `portrait`): K synthetic identities on the built-in
-//! body in the canonical A-pose, rendered by the independent CPU mesh renderer — never by the
-//! splat rasterizer — as the mixture oracle's data ([`IdentityBank`]), the face crop of the
-//! face-loss identity from the fixed face camera (U7) with its face mask, the body's depth from
-//! that camera (D_m of U6), and the held-out views the avatar is scored on.
+//! The portrait capture. The embedded default (spec §7, preset `portrait`): K synthetic
+//! identities ([`crate::identities`], rendered by the independent CPU mesh renderer — never by
+//! the splat rasterizer) as the mixture oracle's data, the face crop of the face-loss identity
+//! from the fixed face camera (U7) with its face mask, the body's depth from that camera (D_m
+//! of U6), and the held-out views the avatar is scored on. Or a user's photo (`data.photo`,
+//! [`crate::photo`]): the body prior and the face crop from it, the face mask and depth as
+//! above, and no truth.
 //!
 //! The avatar's body is the body prior: the avatar's body model ([`AvatarBody`]: the built-in
 //! body, or a user's SMPL-family file) with the shape fitted to the portrait's keypoints
-//! ([`crate::portrait_fit`]); its face region places the face camera and masks the face. Units: its canonical mesh is normalised as
-//! HumanGaussian does (bounding box centred at the origin, longest side 0.6 · 1.1¹⁰ = 1.5562);
-//! every identity shares that transform, and `metres_per_unit` returns to metres.
+//! ([`crate::portrait_fit`], [`crate::photo`]); its face region places the face camera and
+//! masks the face. Units: its canonical mesh is normalised as HumanGaussian does (bounding box
+//! centred at the origin, longest side 0.6 · 1.1¹⁰ = 1.5562); every identity shares that
+//! transform, and `metres_per_unit` returns to metres.
 
 use crate::body_prior::AvatarBody;
 use crate::cameras::orbit_camera;
 use crate::error::AagError;
 use crate::face_align::{ALIGNMENT_LANDMARKS, PortraitCrop, crop_from_portrait};
-use crate::oracle::Targets;
+use crate::identities::{IdentityBank, planar_rgb};
+use crate::photo::Photo;
 use crate::portrait_fit::{
     PORTRAIT_EYE, PORTRAIT_FOVY_DEGREES, PORTRAIT_TARGET, PortraitFit, fit_portrait,
 };
 use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
-use splatzoo_datasets::render::{
-    Albedo, Light, Lighting, MeshInstance, MeshRender, RenderSettings, Texture, render,
-};
+use splatzoo_datasets::render::{Albedo, Lighting, MeshInstance, RenderSettings, render};
 use splatzoo_datasets::synth::identity::Identity;
 use splatzoo_datasets::synth::keypoints::pinhole;
 use splatzoo_datasets::synth::rng::Rng;
 use splatzoo_datasets::synth::scene::posed_once;
 use splatzoo_models::body::builtin_body;
+use splatzoo_models::body::fit::FitConfig;
 use splatzoo_rasterizer::Camera;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Longest side of the normalised body (HumanGaussian: 0.6 · 1.1¹⁰).
 pub const BODY_EXTENT: f64 = 1.556_245_1;
-/// Texture size of each identity.
-const TEXTURE_SIZE: usize = 512;
 /// SMPL joint index of the head.
 const HEAD_JOINT: usize = 15;
 
@@ -105,8 +106,17 @@ pub struct PortraitConfig {
     /// Surface marks of `body_model` (landmarks and optionally the face vertices, JSON; see
     /// `splatzoo_models::body::marks`), for a mesh outside the SMPL-family tables.
     pub body_marks: Option<PathBuf>,
-    /// Where the face crop comes from (U8).
+    /// Where the face crop comes from (U8) in the synthetic capture.
     pub face_crop: FaceCropSource,
+    /// A user's portrait (PNG or JPEG) in place of the synthetic identities: the body prior is
+    /// fitted to its OpenPose keypoints and the face crop cut from it ([`crate::photo`]); a
+    /// guidance model (`guidance_model`) is then required and no held-out truth exists.
+    pub photo: Option<PathBuf>,
+    /// The photo's OpenPose JSON (none: `<stem>_keypoints.json` beside the photo).
+    pub photo_keypoints: Option<PathBuf>,
+    /// The photo camera's vertical field of view (a 50 mm lens on a full-frame sensor held
+    /// upright: 40°).
+    pub photo_fovy_degrees: f64,
 }
 
 /// The face crop's source.
@@ -144,6 +154,9 @@ impl Default for PortraitConfig {
             body_model: None,
             body_marks: None,
             face_crop: FaceCropSource::Render,
+            photo: None,
+            photo_keypoints: None,
+            photo_fovy_degrees: 40.0,
         }
     }
 }
@@ -170,6 +183,16 @@ impl PortraitConfig {
         if self.eval_azimuths == 0 || self.eval_elevations.is_empty() {
             return Err("data: at least one held-out azimuth and elevation".into());
         }
+        if self.photo.is_some() && !self.body_fit {
+            return Err(
+                "data: body_fit = false takes a synthetic identity's true shape; a photo's body \
+                 is fitted (keep body_fit = true)"
+                    .into(),
+            );
+        }
+        if self.photo.is_none() && self.photo_keypoints.is_some() {
+            return Err("data: photo_keypoints without data.photo".into());
+        }
         if self.body_model.is_some() && !self.body_fit {
             return Err(
                 "data: body_fit = false takes the identity's true built-in shape, which a user's \
@@ -181,152 +204,21 @@ impl PortraitConfig {
     }
 }
 
-/// One identity's canonical mesh and texture, in normalised units.
+/// What only the synthetic capture has: the identities (the oracle's data) and their renders
+/// from the held-out cameras.
 #[derive(Debug, Clone)]
-pub struct IdentityMesh {
-    pub identity: Identity,
-    /// `[V]` normalised canonical vertices.
-    pub vertices: Vec<[f32; 3]>,
-    pub texture: Texture,
-    /// With `view_variants`: the textures the oracle shows from the body's left and right
-    /// sides (skin lighter and darker, hair recoloured); empty otherwise.
-    pub side_textures: Vec<Texture>,
+pub struct SyntheticTruth {
+    pub bank: IdentityBank,
+    /// `[identity][view]` held-out renders in [0, 1], `[3, H, W]`.
+    pub eval_targets: Vec<Vec<Vec<f32>>>,
 }
 
-/// The identities seen from any camera: the oracle's [`Targets`].
-#[derive(Debug, Clone)]
-pub struct IdentityBank {
-    pub identities: Vec<IdentityMesh>,
-    pub faces: Vec<[u32; 3]>,
-    pub uv_coords: Vec<[f32; 2]>,
-    pub uv_faces: Vec<[u32; 3]>,
-    pub lighting: Lighting,
-    pub settings: RenderSettings,
-}
-
-/// The light every identity is photographed under: ambient plus a frontal key light, no
-/// shadows (a studio portrait).
-pub fn studio_lighting() -> Lighting {
-    Lighting {
-        ambient: [0.55; 3],
-        environment: None,
-        light: Some(Light::Directional {
-            direction: [-0.3, -0.5, -1.0],
-            color: [0.5; 3],
-        }),
-        shadow_resolution: None,
-    }
-}
-
-impl IdentityBank {
-    pub fn render(&self, label: usize, camera: &Camera) -> MeshRender {
-        self.render_posed(label, &self.identities[label].vertices, camera)
-    }
-
-    /// Identity `label`'s textured mesh with its vertices moved to `vertices` (a pose).
-    pub fn render_posed(&self, label: usize, vertices: &[[f32; 3]], camera: &Camera) -> MeshRender {
-        self.render_textured(vertices, &self.identities[label].texture, camera)
-    }
-
-    /// What the oracle sees of identity `label` from `camera`: its own texture, or with
-    /// `view_variants` a side variant when the camera is on the body's left or right
-    /// (45° < |azimuth| < 135°, the azimuth measured from the body's front, +z).
-    pub fn oracle_render(&self, label: usize, camera: &Camera) -> MeshRender {
-        let mesh = &self.identities[label];
-        let texture = match mesh.side_textures.as_slice() {
-            [left, right] => {
-                let m = &camera.world_to_camera;
-                let centre: [f32; 3] =
-                    std::array::from_fn(|k| -(0..3).map(|r| m[r][k] * m[r][3]).sum::<f32>());
-                let azimuth = f64::from(centre[0])
-                    .atan2(f64::from(centre[2]))
-                    .to_degrees();
-                if (45.0..135.0).contains(&azimuth) {
-                    left
-                } else if (-135.0..-45.0).contains(&azimuth) {
-                    right
-                } else {
-                    &mesh.texture
-                }
-            }
-            _ => &mesh.texture,
-        };
-        self.render_textured(&mesh.vertices, texture, camera)
-    }
-
-    fn render_textured(
-        &self,
-        vertices: &[[f32; 3]],
-        texture: &Texture,
-        camera: &Camera,
-    ) -> MeshRender {
-        let instance = MeshInstance {
-            positions: vertices,
-            faces: &self.faces,
-            albedo: Albedo::Textured {
-                coords: &self.uv_coords,
-                corners: &self.uv_faces,
-                texture,
-            },
-            label: 1,
-            smooth: true,
-        };
-        render(&[instance], camera, &self.lighting, &self.settings)
-    }
-}
-
-/// A mesh render as the model's two branches, `[3, H, W]` RGB and `[1, H, W]` depth, each
-/// mapped from [0, 1] to [−1, 1]; depth is camera z on the body (0 on the background)
-/// normalised by its image's min and max (Eq. 4 as HumanGaussian feeds it).
-pub fn render_to_branches(r: &MeshRender) -> Vec<Vec<f32>> {
-    let n = r.width * r.height;
-    let mut rgb = vec![0.0f32; 3 * n];
-    for (p, c) in r.color.iter().enumerate() {
-        for k in 0..3 {
-            rgb[k * n + p] = 2.0 * c[k].clamp(0.0, 1.0) - 1.0;
-        }
-    }
-    let depth: Vec<f32> = r
-        .depth
-        .iter()
-        .zip(&r.coverage)
-        .map(|(d, c)| if d.is_finite() { d * c } else { 0.0 })
-        .collect();
-    vec![
-        rgb,
-        normalised_depth(&depth)
-            .iter()
-            .map(|d| 2.0 * d - 1.0)
-            .collect(),
-    ]
-}
-
-/// `(d − min) / (max − min)` over one image (0 where the image is flat).
-pub fn normalised_depth(depth: &[f32]) -> Vec<f32> {
-    let lo = depth.iter().copied().fold(f32::INFINITY, f32::min);
-    let hi = depth.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-    let range = hi - lo;
-    depth
-        .iter()
-        .map(|d| if range > 1e-8 { (d - lo) / range } else { 0.0 })
-        .collect()
-}
-
-impl Targets for IdentityBank {
-    fn count(&self) -> usize {
-        self.identities.len()
-    }
-
-    fn target(&self, label: usize, camera: &Camera) -> Vec<Vec<f32>> {
-        render_to_branches(&self.oracle_render(label, camera))
-    }
-}
-
-/// The whole synthetic portrait capture.
+/// The portrait capture: the synthetic default, or a user's photo (`data.photo`).
 #[derive(Debug, Clone)]
 pub struct PortraitCapture {
     pub config: PortraitConfig,
-    pub bank: IdentityBank,
+    /// The synthetic identities and the held-out truth (none for a user's photo).
+    pub truth: Option<SyntheticTruth>,
     /// The avatar's body model and its marks.
     pub body: AvatarBody,
     /// The avatar's canonical mesh (the body prior, normalised): `[V, 3]`, faces `body.faces`.
@@ -343,157 +235,73 @@ pub struct PortraitCapture {
     pub face_camera: Camera,
     /// `[3, S, S]` face crop in [0, 1] (background black) and `[S, S]` face mask.
     pub face_crop: Vec<f32>,
-    /// With `face_crop = "portrait"`: the alignment's RMS residual, crop pixels.
-    pub face_alignment_px: Option<f64>,
+    /// Where the crop was cut from a portrait photo (`face_crop = "portrait"`, or a user's
+    /// photo): the alignment's RMS residual, crop pixels, and the face points it used.
+    pub face_alignment: Option<(f64, usize)>,
     pub face_mask: Vec<bool>,
     /// `[S, S]` the canonical body's depth from the face camera (∞ off the body): D_m of U6.
     pub face_depth: Vec<f32>,
-    /// Held-out cameras and the prompted identity's renders there (`[H, W]` of RGB).
+    /// Held-out cameras (the prompted identity's renders there are in `truth`).
     pub eval_cameras: Vec<Camera>,
-    /// `[identity][view]` held-out renders in [0, 1], `[3, H, W]`.
-    pub eval_targets: Vec<Vec<Vec<f32>>>,
 }
 
-/// `[3, H, W]` in [0, 1] from a render's colours.
-pub fn planar_rgb(r: &MeshRender) -> Vec<f32> {
-    let n = r.width * r.height;
-    let mut out = vec![0.0; 3 * n];
-    for (p, c) in r.color.iter().enumerate() {
-        for k in 0..3 {
-            out[k * n + p] = c[k].clamp(0.0, 1.0);
-        }
-    }
-    out
+/// HumanGaussian's normalisation of a body-space mesh: its bounding box centred at the origin,
+/// its longest side [`BODY_EXTENT`].
+#[derive(Debug, Clone, Copy)]
+struct Normalisation {
+    centre: [f32; 3],
+    scale: f32,
 }
 
-/// The spec's `view_variants`: the identity as the oracle shows it from its left (skin 40 %
-/// lighter, hair a warm brown) and from its right (skin 40 % darker, hair a pale blond) — an
-/// honest prior that disagrees with itself across views, as the paper's fragmented and
-/// asymmetric faces suggest a real one does.
-fn side_variants(identity: &Identity) -> [Identity; 2] {
-    let scaled = |c: [f32; 3], f: f32| c.map(|v| (v * f).clamp(0.0, 1.0));
-    [
-        Identity {
-            skin: scaled(identity.skin, 1.4),
-            hair: [0.45, 0.25, 0.1],
-            ..identity.clone()
-        },
-        Identity {
-            skin: scaled(identity.skin, 0.6),
-            hair: [0.85, 0.75, 0.5],
-            ..identity.clone()
-        },
-    ]
-}
-
-impl PortraitCapture {
-    /// Identity `label`'s mesh posed by the 72-D SMPL `pose` (no translation), in the
-    /// capture's normalised units.
-    pub fn posed_vertices(&self, label: usize, pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
-        let betas = &self.bank.identities[label].identity.betas;
-        self.normalised(&posed_once(betas, pose, device).vertices)
-    }
-
-    /// The body prior's mesh (the avatar's body, faces `body.faces`) posed by `pose`, normalised.
-    pub fn posed_body(&self, pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
-        self.normalised(&self.body.posed(&self.body_betas, pose, device).vertices)
-    }
-
-    fn normalised(&self, vertices: &[[f32; 3]]) -> Vec<[f32; 3]> {
-        let scale = (1.0 / self.metres_per_unit) as f32;
-        vertices
-            .iter()
-            .map(|p| [0, 1, 2].map(|c| (p[c] - self.centre[c]) * scale))
-            .collect()
-    }
-
-    pub fn build(config: &PortraitConfig, device: &Device) -> Result<Self, AagError> {
-        let body = builtin_body();
-        let pose = config.canonical.axis_angle();
-        let identities: Vec<Identity> = (0..config.identities)
-            .map(|k| Identity::sample(config.seed.wrapping_mul(1000).wrapping_add(k as u64)))
-            .collect();
-        let posed: Vec<Vec<[f32; 3]>> = identities
-            .iter()
-            .map(|id| posed_once(&id.betas, &pose, device).vertices)
-            .collect();
-        // The body prior: fitted from the portrait's keypoints, or the truth.
-        let avatar = AvatarBody::load(config.body_model.as_deref(), config.body_marks.as_deref())?;
-        let truth = &identities[config.prompt].betas;
-        let body_fit = if config.body_fit {
-            Some(fit_portrait(
-                &avatar,
-                truth,
-                &pose,
-                config.portrait_size,
-                config.keypoint_noise_px,
-                config.seed ^ 0xF17,
-                device,
-            )?)
-        } else {
-            None
-        };
-        let body_betas = body_fit
-            .as_ref()
-            .map_or_else(|| truth.clone(), |f| f.betas.clone());
-        let prior = avatar.posed(&body_betas, &pose, device);
-        // HumanGaussian's normalisation, from the body prior's mesh.
-        let (reference, head) = (&prior.vertices, &prior.joints[HEAD_JOINT]);
+impl Normalisation {
+    fn of(vertices: &[[f32; 3]]) -> Self {
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
-        for p in reference {
+        for p in vertices {
             for c in 0..3 {
                 lo[c] = lo[c].min(p[c]);
                 hi[c] = hi[c].max(p[c]);
             }
         }
-        let centre = [0, 1, 2].map(|c| 0.5 * (lo[c] + hi[c]));
         let longest = (0..3).map(|c| hi[c] - lo[c]).fold(0.0f32, f32::max);
-        let scale = BODY_EXTENT as f32 / longest;
-        let normalise = |p: &[f32; 3]| [0, 1, 2].map(|c| (p[c] - centre[c]) * scale);
-        let head_height = f64::from(normalise(head)[1]);
-        let faces: Vec<[u32; 3]> = body
-            .model
-            .faces
-            .chunks(3)
-            .map(|f| [f[0], f[1], f[2]])
-            .collect();
-        let bank = IdentityBank {
-            identities: identities
-                .iter()
-                .zip(&posed)
-                .enumerate()
-                .map(|(k, (identity, vertices))| IdentityMesh {
-                    texture: identity.bake_texture(body, TEXTURE_SIZE),
-                    side_textures: if config.view_variants && k == config.prompt {
-                        side_variants(identity)
-                            .iter()
-                            .map(|v| v.bake_texture(body, TEXTURE_SIZE))
-                            .collect()
-                    } else {
-                        Vec::new()
-                    },
-                    identity: identity.clone(),
-                    vertices: vertices.iter().map(normalise).collect(),
-                })
-                .collect(),
-            faces,
-            uv_coords: body.uv.coords.chunks(2).map(|c| [c[0], c[1]]).collect(),
-            uv_faces: body
-                .uv
-                .faces
-                .chunks(3)
-                .map(|f| [f[0], f[1], f[2]])
-                .collect(),
-            lighting: studio_lighting(),
-            settings: RenderSettings {
-                background: [0.0; 3],
-                supersample: 1,
-            },
-        };
-        let canonical: Vec<[f32; 3]> = prior.vertices.iter().map(normalise).collect();
+        Self {
+            centre: [0, 1, 2].map(|c| 0.5 * (lo[c] + hi[c])),
+            scale: BODY_EXTENT as f32 / longest,
+        }
+    }
 
-        // U7: the face camera looks at the face-region centroid from d_f along +z.
+    fn apply(&self, p: &[f32; 3]) -> [f32; 3] {
+        [0, 1, 2].map(|c| (p[c] - self.centre[c]) * self.scale)
+    }
+}
+
+/// The body prior in the capture's units and what the face loss sees of it (U7).
+struct PriorView {
+    normalisation: Normalisation,
+    canonical: Vec<[f32; 3]>,
+    head_height: f64,
+    face_camera: Camera,
+    face_mask: Vec<bool>,
+    face_depth: Vec<f32>,
+}
+
+impl PriorView {
+    /// `avatar` of shape `betas` in the canonical pose, normalised; the face camera looks at
+    /// the face region's centroid from d_f along +z.
+    fn new(
+        config: &PortraitConfig,
+        avatar: &AvatarBody,
+        betas: &[f64],
+        device: &Device,
+    ) -> Result<Self, AagError> {
+        let prior = avatar.posed(betas, &config.canonical.axis_angle(), device);
+        let normalisation = Normalisation::of(&prior.vertices);
+        let canonical: Vec<[f32; 3]> = prior
+            .vertices
+            .iter()
+            .map(|p| normalisation.apply(p))
+            .collect();
+        let head_height = f64::from(normalisation.apply(&prior.joints[HEAD_JOINT])[1]);
         let mut centroid = [0.0f64; 3];
         let mut count = 0.0f64;
         for (v, on) in canonical.iter().zip(&avatar.marks.face_region) {
@@ -510,9 +318,8 @@ impl PortraitCapture {
                 "the body's face region is empty: the face camera has nothing to look at",
             ));
         }
-        let centroid = centroid.map(|c| c / count);
         let face_camera = orbit_camera(
-            centroid,
+            centroid.map(|c| c / count),
             0.0,
             0.0,
             config.face_distance,
@@ -540,79 +347,234 @@ impl PortraitCapture {
                 light: None,
                 shadow_resolution: None,
             },
-            &bank.settings,
+            &RenderSettings {
+                background: [0.0; 3],
+                supersample: 1,
+            },
         );
-        let face_mask = mask_render.color.iter().map(|c| c[0] > 0.5).collect();
-        let face_depth = mask_render.depth.clone();
-        let (face_crop, face_alignment_px) = match config.face_crop {
+        Ok(Self {
+            normalisation,
+            head_height,
+            face_camera,
+            face_mask: mask_render.color.iter().map(|c| c[0] > 0.5).collect(),
+            face_depth: mask_render.depth,
+            canonical,
+        })
+    }
+
+    /// The face crop keeps the body's silhouette from the face camera.
+    fn silhouette(&self) -> Vec<bool> {
+        self.face_depth.iter().map(|d| d.is_finite()).collect()
+    }
+
+    /// The face camera's pixels of `avatar`'s [`ALIGNMENT_LANDMARKS`] on the canonical body.
+    fn face_points(&self, avatar: &AvatarBody) -> [Option<[f64; 2]>; 5] {
+        let face_pinhole = pinhole(&self.face_camera);
+        ALIGNMENT_LANDMARKS.map(|name| {
+            avatar
+                .landmark(name)
+                .and_then(|v| face_pinhole.project(self.canonical[v as usize].map(f64::from)))
+        })
+    }
+}
+
+/// The held-out cameras: `eval_azimuths` at each of `eval_elevations`, offset by half a step
+/// from the training azimuth grid's edges.
+fn eval_cameras(config: &PortraitConfig) -> Vec<Camera> {
+    let mut cameras = Vec::new();
+    for &el in &config.eval_elevations {
+        for a in 0..config.eval_azimuths {
+            let az = -180.0 + 360.0 * (a as f64 + 0.5) / config.eval_azimuths as f64;
+            cameras.push(orbit_camera(
+                [0.0; 3],
+                az,
+                el,
+                config.eval_distance,
+                config.eval_fovy_degrees,
+                config.eval_size,
+            ));
+        }
+    }
+    cameras
+}
+
+impl PortraitCapture {
+    /// Identity `label`'s mesh posed by the 72-D SMPL `pose` (no translation), in the
+    /// capture's normalised units; none without the synthetic identities.
+    pub fn posed_vertices(
+        &self,
+        label: usize,
+        pose: &[f64; 72],
+        device: &Device,
+    ) -> Option<Vec<[f32; 3]>> {
+        let betas = &self.truth.as_ref()?.bank.identities[label].identity.betas;
+        Some(self.normalised(&posed_once(betas, pose, device).vertices))
+    }
+
+    /// The body prior's mesh (the avatar's body, faces `body.faces`) posed by `pose`, normalised.
+    pub fn posed_body(&self, pose: &[f64; 72], device: &Device) -> Vec<[f32; 3]> {
+        self.normalised(&self.body.posed(&self.body_betas, pose, device).vertices)
+    }
+
+    fn normalised(&self, vertices: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        let scale = (1.0 / self.metres_per_unit) as f32;
+        vertices
+            .iter()
+            .map(|p| [0, 1, 2].map(|c| (p[c] - self.centre[c]) * scale))
+            .collect()
+    }
+
+    /// The synthetic capture, or the user's photo's where `data.photo` names one.
+    pub fn build(config: &PortraitConfig, device: &Device) -> Result<Self, AagError> {
+        config.validate().map_err(|m| AagError::input("data", m))?;
+        let avatar = AvatarBody::load(config.body_model.as_deref(), config.body_marks.as_deref())?;
+        match &config.photo {
+            Some(path) => Self::from_photo(config, avatar, path, device),
+            None => Self::synthetic(config, avatar, device),
+        }
+    }
+
+    /// A user's photo: the body prior fitted to its keypoints, the face crop cut from it; no
+    /// identities, no held-out truth.
+    fn from_photo(
+        config: &PortraitConfig,
+        avatar: AvatarBody,
+        path: &Path,
+        device: &Device,
+    ) -> Result<Self, AagError> {
+        let photo = Photo::read(
+            path,
+            config.photo_keypoints.as_deref(),
+            config.photo_fovy_degrees,
+        )?;
+        let fit = photo.fit(&avatar, device)?;
+        let view = PriorView::new(config, &avatar, &fit.betas, device)?;
+        let cropped = crop_from_portrait(
+            &photo.image,
+            photo.width as usize,
+            photo.height as usize,
+            &photo.face_points(FitConfig::default().min_confidence),
+            &view.face_points(&avatar),
+            config.face_size as usize,
+            &view.silhouette(),
+        )
+        .map_err(|e| {
+            AagError::input(
+                photo.keypoints_path.display().to_string(),
+                format!("face_keypoints_2d: {e}"),
+            )
+        })?;
+        Ok(Self::assemble(
+            config,
+            None,
+            avatar,
+            view,
+            fit.betas.clone(),
+            Some(fit),
+            (cropped.crop, Some((cropped.residual_px, cropped.points))),
+        ))
+    }
+
+    /// The embedded default: K identities from the seed, the prompted one's portrait fitted
+    /// (or its true shape), the face crop rendered or cut from its portrait.
+    fn synthetic(
+        config: &PortraitConfig,
+        avatar: AvatarBody,
+        device: &Device,
+    ) -> Result<Self, AagError> {
+        let pose = config.canonical.axis_angle();
+        let identities: Vec<Identity> = (0..config.identities)
+            .map(|k| Identity::sample(config.seed.wrapping_mul(1000).wrapping_add(k as u64)))
+            .collect();
+        let posed: Vec<Vec<[f32; 3]>> = identities
+            .iter()
+            .map(|id| posed_once(&id.betas, &pose, device).vertices)
+            .collect();
+        let truth = &identities[config.prompt].betas;
+        let body_fit = if config.body_fit {
+            Some(fit_portrait(
+                &avatar,
+                truth,
+                &pose,
+                config.portrait_size,
+                config.keypoint_noise_px,
+                config.seed ^ 0xF17,
+                device,
+            )?)
+        } else {
+            None
+        };
+        let body_betas = body_fit
+            .as_ref()
+            .map_or_else(|| truth.clone(), |f| f.betas.clone());
+        let view = PriorView::new(config, &avatar, &body_betas, device)?;
+        let normalisation = view.normalisation;
+        let bank = IdentityBank::build(config, &identities, &posed, |p| normalisation.apply(p));
+        let face_crop = match config.face_crop {
             FaceCropSource::Render => (
-                planar_rgb(&bank.render(config.face_identity, &face_camera)),
+                planar_rgb(&bank.render(config.face_identity, &view.face_camera)),
                 None,
             ),
             FaceCropSource::Portrait => {
-                let keep: Vec<bool> = face_depth.iter().map(|d| d.is_finite()).collect();
                 let photo_camera = Camera::look_at(
-                    normalise(&PORTRAIT_EYE),
-                    normalise(&PORTRAIT_TARGET),
+                    normalisation.apply(&PORTRAIT_EYE),
+                    normalisation.apply(&PORTRAIT_TARGET),
                     [0.0, 1.0, 0.0],
                     PORTRAIT_FOVY_DEGREES,
                     config.portrait_size,
                     config.portrait_size,
                 );
-                let cropped = synthetic_portrait_crop(
-                    &bank,
-                    config,
-                    &photo_camera,
-                    &avatar,
-                    &canonical,
-                    &face_camera,
-                    &keep,
-                )?;
-                (cropped.crop, Some(cropped.residual_px))
+                let cropped =
+                    synthetic_portrait_crop(&bank, config, &photo_camera, &avatar, &view)?;
+                (cropped.crop, Some((cropped.residual_px, cropped.points)))
             }
         };
-
-        let mut eval_cameras = Vec::new();
-        for &el in &config.eval_elevations {
-            for a in 0..config.eval_azimuths {
-                // Offset by half a step from the training azimuth grid's edges.
-                let az = -180.0 + 360.0 * (a as f64 + 0.5) / config.eval_azimuths as f64;
-                eval_cameras.push(orbit_camera(
-                    [0.0; 3],
-                    az,
-                    el,
-                    config.eval_distance,
-                    config.eval_fovy_degrees,
-                    config.eval_size,
-                ));
-            }
-        }
+        let cameras = eval_cameras(config);
         let eval_targets = (0..config.identities)
             .map(|k| {
-                eval_cameras
+                cameras
                     .iter()
                     .map(|c| planar_rgb(&bank.render(k, c)))
                     .collect()
             })
             .collect();
-        Ok(Self {
-            config: config.clone(),
-            bank,
-            body: avatar,
-            canonical,
-            metres_per_unit: 1.0 / f64::from(scale),
-            centre,
+        Ok(Self::assemble(
+            config,
+            Some(SyntheticTruth { bank, eval_targets }),
+            avatar,
+            view,
             body_betas,
             body_fit,
-            head_height,
-            face_camera,
             face_crop,
-            face_alignment_px,
-            face_mask,
-            face_depth,
-            eval_cameras,
-            eval_targets,
-        })
+        ))
+    }
+
+    fn assemble(
+        config: &PortraitConfig,
+        truth: Option<SyntheticTruth>,
+        body: AvatarBody,
+        view: PriorView,
+        body_betas: Vec<f64>,
+        body_fit: Option<PortraitFit>,
+        (face_crop, face_alignment): (Vec<f32>, Option<(f64, usize)>),
+    ) -> Self {
+        Self {
+            config: config.clone(),
+            truth,
+            body,
+            canonical: view.canonical,
+            metres_per_unit: 1.0 / f64::from(view.normalisation.scale),
+            centre: view.normalisation.centre,
+            body_betas,
+            body_fit,
+            head_height: view.head_height,
+            face_camera: view.face_camera,
+            face_crop,
+            face_alignment,
+            face_mask: view.face_mask,
+            face_depth: view.face_depth,
+            eval_cameras: eval_cameras(config),
+        }
     }
 }
 
@@ -623,13 +585,11 @@ fn synthetic_portrait_crop(
     config: &PortraitConfig,
     photo_camera: &Camera,
     avatar: &AvatarBody,
-    canonical: &[[f32; 3]],
-    face_camera: &Camera,
-    keep: &[bool],
+    view: &PriorView,
 ) -> Result<PortraitCrop, AagError> {
     let photo = planar_rgb(&bank.render(config.face_identity, photo_camera));
     let seen = &bank.identities[config.face_identity].vertices;
-    let (photo_pinhole, face_pinhole) = (pinhole(photo_camera), pinhole(face_camera));
+    let photo_pinhole = pinhole(photo_camera);
     let mut rng = Rng(config.seed ^ 0xFACE);
     let noise = config.keypoint_noise_px;
     let photo_points = ALIGNMENT_LANDMARKS.map(|name| {
@@ -638,19 +598,14 @@ fn synthetic_portrait_crop(
             .and_then(|v| photo_pinhole.project(seen[v as usize].map(f64::from)))?;
         Some([p[0] + noise * rng.normal(), p[1] + noise * rng.normal()])
     });
-    let body_points = ALIGNMENT_LANDMARKS.map(|name| {
-        avatar
-            .landmark(name)
-            .and_then(|v| face_pinhole.project(canonical[v as usize].map(f64::from)))
-    });
     let size = config.portrait_size as usize;
     crop_from_portrait(
         &photo,
         size,
         size,
         &photo_points,
-        &body_points,
+        &view.face_points(avatar),
         config.face_size as usize,
-        keep,
+        &view.silhouette(),
     )
 }

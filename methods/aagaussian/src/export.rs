@@ -1,5 +1,6 @@
 //! What a finished run writes into its directory: the canonical avatar as an INRIA
-//! `point_cloud.ply` (normalised units), a turntable GIF (avatar | prompted identity), the
+//! `point_cloud.ply` (normalised units), a turntable GIF (avatar | prompted identity; the
+//! avatar alone for a user's photo), the
 //! face view beside the face crop, the final scores for `metrics.json` (with the guidance's
 //! fixed points, [`crate::fixed_points`]), and the avatar
 //! animated by the built-in motion (`animation/`).
@@ -8,6 +9,7 @@ use crate::animate::{FrameOutput, animate, builtin_motion};
 use crate::cameras::orbit_camera;
 use crate::error::AagError;
 use crate::fixed_points;
+use crate::identities::planar_rgb;
 use crate::sds::Guidance;
 use crate::trainer::{AagTrainer, planar_to_tensor, render_views};
 use splatzoo_train::harness::Say;
@@ -42,12 +44,16 @@ pub fn write_outputs(
             size,
         );
         let render = render_views(&splats, &[camera])?.remove(0);
-        let truth = crate::data::planar_rgb(&capture.bank.render(capture.config.prompt, &camera));
-        let truth = planar_to_tensor(&truth, size as usize, &device);
-        frames.push(side_by_side(&[
-            srgb_image(&render.color.clamp(0.0, 1.0)),
-            srgb_image(&truth),
-        ]));
+        let mut panels = vec![srgb_image(&render.color.clamp(0.0, 1.0))];
+        if let Some(truth) = &capture.truth {
+            let target = planar_rgb(&truth.bank.render(capture.config.prompt, &camera));
+            panels.push(srgb_image(&planar_to_tensor(
+                &target,
+                size as usize,
+                &device,
+            )));
+        }
+        frames.push(side_by_side(&panels));
     }
     let dataset = |e| AagError::Train(splatzoo_train::TrainError::Dataset(e));
     write_gif(&run.join("turntable.gif"), &frames, 12).map_err(dataset)?;
@@ -119,14 +125,13 @@ pub fn write_outputs(
             }),
         )?;
         say.say(&format!(
-            "animated {} frames (built-in walk then wave): PSNR to the identity posed alike \
-             {:.2} dB mean, {:.2} dB worst frame, {:.2} dB in the canonical pose (gap {:.2} dB); \
-             {} Gaussians bound, {} culled; {:.1} fps; wrote {}",
-            scores.frame_psnr.len(),
-            scores.mean_psnr,
-            scores.min_psnr,
-            scores.canonical_psnr,
-            scores.gap_db,
+            "animated {} frames (built-in walk then wave){}; {} Gaussians bound, {} culled; \
+             {:.1} fps; wrote {}",
+            scores.frames,
+            scores
+                .identity
+                .as_ref()
+                .map_or_else(String::new, |kept| kept.line()),
             scores.gaussians,
             scores.culled,
             scores.fps,

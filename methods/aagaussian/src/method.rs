@@ -51,6 +51,19 @@ pub struct AagArgs {
     /// Guidance by a user's ONNX denoiser described by this TOML (see the README).
     #[arg(long)]
     pub guidance_config: Option<std::path::PathBuf>,
+    /// A user's portrait (PNG or JPEG) in place of the synthetic identities (`data.photo`).
+    #[arg(long)]
+    pub photo: Option<std::path::PathBuf>,
+    /// Its OpenPose JSON (`data.photo_keypoints`; default `<stem>_keypoints.json` beside it).
+    #[arg(long)]
+    pub photo_keypoints: Option<std::path::PathBuf>,
+}
+
+/// `key="path"` as a TOML basic string (backslashes and quotes escaped).
+fn path_override(key: &str, path: &Path) -> String {
+    let text = path.display().to_string();
+    let escaped = text.replace('\\', "\\\\").replace('"', "\\\"");
+    format!("{key}=\"{escaped}\"")
 }
 
 pub struct Aag {
@@ -78,7 +91,14 @@ impl Aag {
                 (Box::new(model), about)
             }
             None => (
-                Box::new(mixture_oracle(&config, &capture)),
+                Box::new(mixture_oracle(&config, &capture).ok_or_else(|| {
+                    AagError::input(
+                        "data.photo",
+                        "a user's photo needs a guidance model (guidance_model = its TOML, or \
+                         --guidance-config): the mixture oracle knows only the synthetic \
+                         identities",
+                    )
+                })?),
                 format!(
                     "guidance: the mixture oracle over {} synthetic identities (prompt = identity {}, \
                  negative = identity {}, data noise {}), {:?} schedule, {:?} prediction, {} \
@@ -96,8 +116,25 @@ impl Aag {
         };
         let decisions = vec![
             guidance,
-            match &capture.body_fit {
-                Some(fit) => format!(
+            match (&capture.body_fit, &data.photo) {
+                (Some(fit), Some(photo)) => format!(
+                    "body prior: the {} body ({:?}, {} vertices, {} joints) fitted to the \
+                     OpenPose keypoints of the photo {} (no floor, {:.0}° field of view): \
+                     reprojection {:.2} px, rest height {:.2} m (a single photo fixes the \
+                     proportions; the shape prior, the size); {:?} canonical pose, {:.4} m per \
+                     unit",
+                    capture.body.source,
+                    capture.body.model.kind,
+                    capture.body.model.vertex_count(),
+                    capture.body.model.joint_count(),
+                    photo.display(),
+                    data.photo_fovy_degrees,
+                    fit.reprojection_rms_px,
+                    fit.rest_height_m,
+                    data.canonical,
+                    capture.metres_per_unit
+                ),
+                (Some(fit), None) => format!(
                     "body prior: the {} body ({:?}, {} vertices, {} joints) fitted to the {}² \
                      portrait's BODY_25 keypoints ({} px noise): reprojection {:.2} px, joints \
                      {:.0} mm from the truth, rest height {:+.1} %; {:?} canonical pose, {:.4} m \
@@ -109,26 +146,33 @@ impl Aag {
                     data.portrait_size,
                     data.keypoint_noise_px,
                     fit.reprojection_rms_px,
-                    fit.mpjpe_m * 1e3,
-                    fit.height_error * 100.0,
+                    fit.mpjpe_m.unwrap_or(f64::NAN) * 1e3,
+                    fit.height_error.unwrap_or(f64::NAN) * 100.0,
                     data.canonical,
                     capture.metres_per_unit
                 ),
-                None => format!(
+                (None, _) => format!(
                     "body prior: the prompted identity's true shape (data.body_fit = false) in the \
                      {:?} canonical pose, {:.4} m per unit",
                     data.canonical, capture.metres_per_unit
                 ),
             },
             format!(
-                "face loss: crop of identity {} {}, weight {} from step {}, line of sight ×{}",
-                data.face_identity,
-                match capture.face_alignment_px {
-                    None => "rendered from the fixed face camera".to_owned(),
-                    Some(px) => format!(
-                        "cut from its {}² portrait by U8's face-point alignment ({px:.2} px \
-                         residual)",
-                        data.portrait_size
+                "face loss: crop {}, weight {} from step {}, line of sight ×{}",
+                match (capture.face_alignment, &data.photo) {
+                    (Some((px, points)), Some(photo)) => format!(
+                        "cut from the photo {} by U8's alignment of {points} face points \
+                         ({px:.2} px residual)",
+                        photo.display()
+                    ),
+                    (Some((px, points)), None) => format!(
+                        "of identity {} cut from its {}² portrait by U8's alignment of {points} \
+                         face points ({px:.2} px residual)",
+                        data.face_identity, data.portrait_size
+                    ),
+                    (None, _) => format!(
+                        "of identity {} rendered from the fixed face camera",
+                        data.face_identity
                     ),
                 },
                 config.face.weight,
@@ -221,11 +265,14 @@ impl Method for Aag {
         on(args.no_depth, "sds.lambda_depth=0.0");
         on(args.box_init, "init=\"box\"");
         on(args.anpg, "sds.guidance=\"anpg\"");
-        if let Some(path) = &args.guidance_config {
-            // A TOML basic string: backslashes and quotes escaped.
-            let text = path.display().to_string();
-            let escaped = text.replace('\\', "\\\\").replace('"', "\\\"");
-            sets.push(format!("guidance_model=\"{escaped}\""));
+        for (key, path) in [
+            ("guidance_model", &args.guidance_config),
+            ("data.photo", &args.photo),
+            ("data.photo_keypoints", &args.photo_keypoints),
+        ] {
+            if let Some(path) = path {
+                sets.push(path_override(key, path));
+            }
         }
         sets
     }
@@ -254,12 +301,15 @@ impl Method for Aag {
 
     fn describe(&self) -> String {
         let c = &self.trainer.config;
+        let source = match &c.data.photo {
+            Some(photo) => format!("the photo {}", photo.display()),
+            None => format!("{} synthetic identities", c.data.identities),
+        };
         format!(
-            "{} Gaussians on the canonical body, B = {} views of {}², {} identities, face crop {}²",
+            "{} Gaussians on the canonical body, B = {} views of {}², {source}, face crop {}²",
             self.trainer.node.gaussians(),
             c.batch,
             c.render_size,
-            c.data.identities,
             c.data.face_size
         )
     }
@@ -343,16 +393,32 @@ impl Method for Aag {
 
     fn evaluate(&self, lpips: Option<&Lpips>) -> Result<Evaluation, TrainError> {
         let scores = self.trainer.evaluate(lpips)?;
-        Ok(Evaluation::new(
-            self.trainer.step,
-            Scores {
-                psnr: scores.psnr,
-                ssim: scores.ssim,
-                lpips: scores.lpips,
-            },
-        )
-        .with("scores", "held-out views of the prompted identity")
-        .with("aag", serde_json::to_value(&scores).expect("plain data")))
+        let evaluation = match &scores.held_out {
+            Some(held_out) => Evaluation::new(
+                self.trainer.step,
+                Scores {
+                    psnr: held_out.psnr,
+                    ssim: held_out.ssim,
+                    lpips: held_out.lpips,
+                },
+            )
+            .with("scores", "held-out views of the prompted identity"),
+            None => Evaluation::new(
+                self.trainer.step,
+                Scores {
+                    psnr: scores.face_psnr,
+                    ssim: scores.face_ssim,
+                    lpips: None,
+                },
+            )
+            .of_training_views()
+            .with(
+                "scores",
+                "the face view against the photo's face crop (the face loss's target: a photo has \
+                 no held-out view)",
+            ),
+        };
+        Ok(evaluation.with("aag", serde_json::to_value(&scores).expect("plain data")))
     }
 
     /// The held-out cameras and the face camera.

@@ -27,10 +27,14 @@ use splatzoo_rasterizer::Camera;
 pub struct PortraitFit {
     pub betas: Vec<f64>,
     pub reprojection_rms_px: f64,
-    /// Mean 3-D error of the 22 body joints in the portrait's pose, metres.
-    pub mpjpe_m: f64,
-    /// Fitted rest height (of the avatar's body model) over true rest height, minus 1.
-    pub height_error: f64,
+    /// The fitted body's rest height, metres.
+    pub rest_height_m: f64,
+    /// Mean 3-D error of the 22 body joints in the portrait's pose, metres (none for a user's
+    /// photo: no truth).
+    pub mpjpe_m: Option<f64>,
+    /// Fitted rest height (of the avatar's body model) over true rest height, minus 1 (none for
+    /// a user's photo).
+    pub height_error: Option<f64>,
     /// The keypoints the fit saw (BODY_25; confidence 0 where the body marks nothing).
     #[serde(skip)]
     pub keypoints: Option<PersonKeypoints>,
@@ -53,7 +57,8 @@ pub fn portrait_camera(size: u32) -> Camera {
     )
 }
 
-fn rest_height(vertices: &[[f32; 3]]) -> f64 {
+/// Top to bottom of `vertices`, along +y.
+pub(crate) fn rest_height(vertices: &[[f32; 3]]) -> f64 {
     let (lo, hi) = vertices
         .iter()
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| {
@@ -144,13 +149,15 @@ pub fn fit_portrait(
         })
         .sum::<f64>()
         / 22.0;
+    let rest_height_m = rest_height(&fitted_rest.vertices);
     Ok(PortraitFit {
-        height_error: rest_height(&fitted_rest.vertices)
-            / rest_height(&posed_once(betas, &[0.0; 72], device).vertices)
-            - 1.0,
+        height_error: Some(
+            rest_height_m / rest_height(&posed_once(betas, &[0.0; 72], device).vertices) - 1.0,
+        ),
+        rest_height_m,
         betas: fit.betas,
         reprojection_rms_px: fit.reprojection_rms_px,
-        mpjpe_m,
+        mpjpe_m: Some(mpjpe_m),
         keypoints: Some(keypoints),
     })
 }

@@ -90,17 +90,18 @@ fn host_batch(tensor: &Tensor<4>) -> LatentBatch {
     }
 }
 
-/// The oracle the configuration describes over the capture's identities.
-pub fn mixture_oracle(config: &AagConfig, capture: &PortraitCapture) -> MixtureOracle {
+/// The oracle the configuration describes over the capture's identities; none for a user's
+/// photo (no identities).
+pub fn mixture_oracle(config: &AagConfig, capture: &PortraitCapture) -> Option<MixtureOracle> {
     let data = &config.data;
-    MixtureOracle {
+    Some(MixtureOracle {
         schedule: NoiseSchedule::of(config.oracle.schedule),
         prediction: config.oracle.prediction,
         data_noise: config.oracle.data_noise,
         components: Components::labels(data.prompt, data.negative, data.identities),
         branches: config.oracle.branches,
-        targets: Box::new(capture.bank.clone()),
-    }
+        targets: Box::new(capture.truth.as_ref()?.bank.clone()),
+    })
 }
 
 impl AagTrainer {

@@ -234,7 +234,8 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
             let evaluation = method.evaluate(lpips)?;
             last_psnr = Some(evaluation.scores.psnr);
             out.say(&format!(
-                "step {step:>6}: held-out {}",
+                "step {step:>6}: {} {}",
+                evaluation.kind(),
                 evaluation.scores.line()
             ));
             history.evaluations.push(evaluation);
@@ -295,10 +296,9 @@ pub fn run<M: Method>(args: &Args<M::Args>) -> Result<ExitCode, TrainError> {
     );
     summary.extend(extra);
     out.write_metrics(&metrics)?;
-    let headline = history
-        .evaluations
-        .last()
-        .map_or(String::new(), |e| format!("held-out {}; ", e.scores.line()));
+    let headline = history.evaluations.last().map_or(String::new(), |e| {
+        format!("{} {}; ", e.kind(), e.scores.line())
+    });
     out.say(&format!(
         "{headline}{rate:.2} it/s, {seconds:.0} s in all; wrote {}",
         out.run.path.display()

@@ -55,12 +55,16 @@ impl ScoreSum {
     }
 }
 
-/// One held-out evaluation.
+/// One evaluation: of held-out views, unless `training_views`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Evaluation {
     pub step: usize,
     #[serde(flatten)]
     pub scores: Scores,
+    /// The scores are of views the method trains on (a capture with nothing held out: a single
+    /// photo, say), so they measure the fit, not generalisation.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub training_views: bool,
     /// Further figures of the method at this step (Gaussian count, scores on other view sets).
     #[serde(flatten)]
     pub extra: BTreeMap<String, serde_json::Value>,
@@ -71,7 +75,23 @@ impl Evaluation {
         Self {
             step,
             scores,
+            training_views: false,
             extra: BTreeMap::new(),
+        }
+    }
+
+    /// Marks the scores as of training views.
+    pub fn of_training_views(mut self) -> Self {
+        self.training_views = true;
+        self
+    }
+
+    /// `held-out` or `training-view`, for logs.
+    pub fn kind(&self) -> &'static str {
+        if self.training_views {
+            "training-view"
+        } else {
+            "held-out"
         }
     }
 

@@ -65,14 +65,17 @@ struct Args {
 const HEADER: &str = "arm,seed,psnr,ssim,lpips,clip_score,prompt_alignment,face_psnr,\
                       face_asymmetry,floater_mass,gaussians,seconds";
 
+/// One arm's row; the held-out columns are blank for a user's photo (no truth).
 fn csv_row(arm: &str, seed: u64, s: &AagScores, seconds: f64) -> String {
+    let held_out = s.held_out.as_ref();
+    let blank_or = |v: Option<String>| v.unwrap_or_default();
     format!(
-        "{arm},{seed},{:.3},{:.4},{},{},{:.3},{:.3},{:.4},{:.3},{},{seconds:.0}",
-        s.psnr,
-        s.ssim,
-        s.lpips.map_or(String::new(), |l| format!("{l:.4}")),
-        s.clip_score.map_or(String::new(), |c| format!("{c:.2}")),
-        s.prompt_alignment,
+        "{arm},{seed},{},{},{},{},{},{:.3},{:.4},{:.3},{},{seconds:.0}",
+        blank_or(held_out.map(|h| format!("{:.3}", h.psnr))),
+        blank_or(held_out.map(|h| format!("{:.4}", h.ssim))),
+        blank_or(held_out.and_then(|h| h.lpips).map(|l| format!("{l:.4}"))),
+        blank_or(s.clip_score.map(|c| format!("{c:.2}"))),
+        blank_or(held_out.map(|h| format!("{:.3}", h.prompt_alignment))),
         s.face_psnr,
         s.face_asymmetry,
         s.floater_mass,

@@ -85,7 +85,7 @@ fn run(args: Args) -> Result<(), TrainError> {
     })?;
     let sequence = match (&args.poses, &args.keypoints) {
         (Some(path), _) => {
-            let shapes = capture.bank.identities[0].identity.betas.len();
+            let shapes = splatzoo_models::body::builtin_body().model.shape_count();
             load_driving_sequence(path, JOINTS, shapes, args.up)?
         }
         (None, Some(dir)) => {
@@ -127,18 +127,17 @@ fn run(args: Args) -> Result<(), TrainError> {
         std::fs::write(tmp, &json)
     })?;
     println!(
-        "drove {} frames of {} Gaussians ({} culled) at {}² at {:.1} fps (posing, rasterizing); \
-         PSNR to the identity posed alike {:.2} dB mean, {:.2} dB worst, {:.2} dB canonical \
-         (gap {:.2} dB); wrote {}",
-        scores.frame_psnr.len(),
+        "drove {} frames of {} Gaussians ({} culled) at {}² at {:.1} fps (posing, \
+         rasterizing){}; wrote {}",
+        scores.frames,
         scores.gaussians,
         scores.culled,
         animation.size,
         scores.fps,
-        scores.mean_psnr,
-        scores.min_psnr,
-        scores.canonical_psnr,
-        scores.gap_db,
+        scores
+            .identity
+            .as_ref()
+            .map_or_else(String::new, |kept| kept.line()),
         args.out.display()
     );
     Ok(())

@@ -7,7 +7,8 @@ use crate::common::tiny_portrait;
 use crate::sds::crate_seed;
 use splatzoo_aagaussian::animate::{AnimationConfig, animate, builtin_motion, driving_pose};
 use splatzoo_aagaussian::binding::{bind, bind_brute_force, matrix_quaternion, quaternion_product};
-use splatzoo_aagaussian::data::{PortraitCapture, studio_lighting};
+use splatzoo_aagaussian::data::PortraitCapture;
+use splatzoo_aagaussian::identities::studio_lighting;
 use splatzoo_aagaussian::init::knn_scales;
 use splatzoo_datasets::render::Light;
 use splatzoo_datasets::synth::rng::Rng;
@@ -148,7 +149,8 @@ fn a_reference_avatar_keeps_its_identity_when_animated() {
     let capture = capture();
     let device = Backend::Flex.device();
     let label = capture.config.prompt;
-    let mesh = &capture.bank.identities[label];
+    let bank = &capture.truth.as_ref().expect("synthetic").bank;
+    let mesh = &bank.identities[label];
     let (vertices, faces) = (&capture.canonical, &capture.body.faces);
     let flat_v: Vec<f32> = vertices.iter().flatten().copied().collect();
     let flat_f: Vec<u32> = faces.iter().flatten().copied().collect();
@@ -165,11 +167,11 @@ fn a_reference_avatar_keeps_its_identity_when_animated() {
     let (mut points, mut colours) = (Vec::new(), Vec::new());
     for (&f, w) in anchors.face_from_gaussian.iter().zip(&anchors.barycentric) {
         let face = faces[f as usize];
-        let uv_face = capture.bank.uv_faces[f as usize];
+        let uv_face = bank.uv_faces[f as usize];
         let corner = |k: usize| vertices[face[k] as usize].map(f64::from);
         points.push([0, 1, 2].map(|c| (0..3).map(|k| w[k] * vertices[face[k] as usize][c]).sum()));
         let (u, v) = (0..3).fold((0.0, 0.0), |(u, v), k| {
-            let uv = capture.bank.uv_coords[uv_face[k] as usize];
+            let uv = bank.uv_coords[uv_face[k] as usize];
             (u + w[k] * uv[0], v + w[k] * uv[1])
         });
         let frame = splatzoo_aagaussian::binding::face_frame([corner(0), corner(1), corner(2)]);
@@ -190,16 +192,18 @@ fn a_reference_avatar_keeps_its_identity_when_animated() {
     let motion = builtin_motion(12, 6.0);
     assert!(driving_pose(&motion, 0, false).is_ok());
     let scores = animate(&set, &capture, &motion, &config, None).expect("animate");
-    assert_eq!(scores.frame_psnr.len(), motion.frames());
+    assert_eq!(scores.frames, motion.frames());
+    let kept = scores.identity.as_ref().expect("the synthetic identity");
+    assert_eq!(kept.frame_psnr.len(), motion.frames());
     assert!(
         scores.culled * 100 < points.len(),
         "{} of {} culled",
         scores.culled,
         points.len()
     );
-    assert!(scores.canonical_psnr > 20.0, "{scores:?}");
-    assert!(scores.gap_db.abs() <= 1.5, "{scores:?}");
-    assert!(scores.frame_psnr.iter().all(|p| p.is_finite()));
+    assert!(kept.canonical_psnr > 20.0, "{scores:?}");
+    assert!(kept.gap_db.abs() <= 1.5, "{scores:?}");
+    assert!(kept.frame_psnr.iter().all(|p| p.is_finite()));
 }
 
 /// `view_variants`: the oracle shows the prompted identity as it is from the front and back,
@@ -213,7 +217,7 @@ fn view_variants_change_only_the_sides() {
         ..tiny_portrait(16)
     };
     let capture = PortraitCapture::build(&config, &Backend::Flex.device()).expect("a capture");
-    let bank = &capture.bank;
+    let bank = &capture.truth.as_ref().expect("synthetic").bank;
     let label = config.prompt;
     let colour = |az: f64, variant: bool| {
         let camera = orbit_camera([0.0; 3], az, 0.0, 1.8, 50.0, 32);

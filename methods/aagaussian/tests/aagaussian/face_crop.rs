@@ -85,7 +85,7 @@ fn the_crop_resamples_through_the_similarity() {
 }
 
 /// PSNR of `b` to `a` (`[3, S, S]`) over `mask`.
-fn masked_psnr(a: &[f32], b: &[f32], mask: &[bool]) -> f64 {
+pub fn masked_psnr(a: &[f32], b: &[f32], mask: &[bool]) -> f64 {
     let plane = mask.len();
     let (mut squared, mut count) = (0.0f64, 0usize);
     for (p, _) in mask.iter().enumerate().filter(|(_, on)| **on) {
@@ -142,8 +142,9 @@ fn the_portrait_crop_matches_the_face_cameras_render() {
     let rendered =
         PortraitCapture::build(&config(FaceCropSource::Render), &device).expect("render");
     let cut = PortraitCapture::build(&config(FaceCropSource::Portrait), &device).expect("portrait");
-    assert_eq!(rendered.face_alignment_px, None);
-    let residual = cut.face_alignment_px.expect("aligned");
+    assert_eq!(rendered.face_alignment, None);
+    let (residual, points) = cut.face_alignment.expect("aligned");
+    assert_eq!(points, 5);
     let mask = &rendered.face_mask;
     let psnr = masked_psnr(&rendered.face_crop, &cut.face_crop, mask);
     let moved = warp_crop(

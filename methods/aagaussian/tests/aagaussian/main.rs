@@ -4,7 +4,8 @@
 //! reference avatar, the ONNX guidance path against its Burn twin,
 //! the Monte-Carlo moments of SDS under the mixture, and the trainer's schedule and resume,
 //! the portrait's body fit, poses fitted to a synthetic video's keypoints, and
-//! three steps on NdArray and wgpu against Flex, the extremes, and a user's body model.
+//! three steps on NdArray and wgpu against Flex, the extremes, a user's body model, and a
+//! user's own photo.
 
 mod backends;
 mod binding;
@@ -13,6 +14,7 @@ mod extremes;
 mod face_crop;
 mod guidance;
 mod onnx;
+mod photo;
 mod sds;
 mod trainer;
 mod user_body;

@@ -21,7 +21,7 @@ use splatzoo_train::backend::Backend;
 use std::path::{Path, PathBuf};
 
 const TOKENS: usize = 5;
-const CHANNELS: usize = 6;
+pub const CHANNELS: usize = 6;
 
 fn random_rows(rng: &mut Rng, count: usize) -> Vec<Vec<f32>> {
     (0..count)
@@ -33,7 +33,7 @@ fn random_rows(rng: &mut Rng, count: usize) -> Vec<Vec<f32>> {
         .collect()
 }
 
-fn prompts(rng: &mut Rng) -> PromptEmbeddings {
+pub fn prompts(rng: &mut Rng) -> PromptEmbeddings {
     PromptEmbeddings::from_rows(
         TOKENS,
         CHANNELS,
@@ -44,7 +44,7 @@ fn prompts(rng: &mut Rng) -> PromptEmbeddings {
 }
 
 /// Exports `net` for 8² inputs and writes its TOML and embeddings beside it.
-fn write_model(net: &TinyDenoiser, prompts: &PromptEmbeddings, dir: &Path) -> PathBuf {
+pub fn write_model(net: &TinyDenoiser, prompts: &PromptEmbeddings, dir: &Path) -> PathBuf {
     write_guidance(net, prompts, 8, 1.0, dir).expect("exported")
 }
 
