@@ -131,9 +131,7 @@ impl AagTrainer {
             gaussians: set.len(),
         })
     }
-}
 
-impl AagTrainer {
     /// `images` (the held-out renders) against every identity's `targets` (`[identity][view]`).
     fn held_out(
         &self,

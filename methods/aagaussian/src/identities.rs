@@ -53,6 +53,55 @@ pub fn studio_lighting() -> Lighting {
 }
 
 impl IdentityBank {
+    /// The identities of `config`, each posed as `posed` says (body-space vertices) and moved
+    /// into the capture's units by `normalise`.
+    pub fn build(
+        config: &PortraitConfig,
+        identities: &[Identity],
+        posed: &[Vec<[f32; 3]>],
+        normalise: impl Fn(&[f32; 3]) -> [f32; 3],
+    ) -> Self {
+        let body = builtin_body();
+        Self {
+            identities: identities
+                .iter()
+                .zip(posed)
+                .enumerate()
+                .map(|(k, (identity, vertices))| IdentityMesh {
+                    texture: identity.bake_texture(body, TEXTURE_SIZE),
+                    side_textures: if config.view_variants && k == config.prompt {
+                        side_variants(identity)
+                            .iter()
+                            .map(|v| v.bake_texture(body, TEXTURE_SIZE))
+                            .collect()
+                    } else {
+                        Vec::new()
+                    },
+                    identity: identity.clone(),
+                    vertices: vertices.iter().map(&normalise).collect(),
+                })
+                .collect(),
+            faces: body
+                .model
+                .faces
+                .chunks(3)
+                .map(|f| [f[0], f[1], f[2]])
+                .collect(),
+            uv_coords: body.uv.coords.chunks(2).map(|c| [c[0], c[1]]).collect(),
+            uv_faces: body
+                .uv
+                .faces
+                .chunks(3)
+                .map(|f| [f[0], f[1], f[2]])
+                .collect(),
+            lighting: studio_lighting(),
+            settings: RenderSettings {
+                background: [0.0; 3],
+                supersample: 1,
+            },
+        }
+    }
+
     pub fn render(&self, label: usize, camera: &Camera) -> MeshRender {
         self.render_posed(label, &self.identities[label].vertices, camera)
     }
@@ -153,57 +202,6 @@ impl Targets for IdentityBank {
 
     fn target(&self, label: usize, camera: &Camera) -> Vec<Vec<f32>> {
         render_to_branches(&self.oracle_render(label, camera))
-    }
-}
-
-impl IdentityBank {
-    /// The identities of `config`, each posed as `posed` says (body-space vertices) and moved
-    /// into the capture's units by `normalise`.
-    pub fn build(
-        config: &PortraitConfig,
-        identities: &[Identity],
-        posed: &[Vec<[f32; 3]>],
-        normalise: impl Fn(&[f32; 3]) -> [f32; 3],
-    ) -> Self {
-        let body = builtin_body();
-        Self {
-            identities: identities
-                .iter()
-                .zip(posed)
-                .enumerate()
-                .map(|(k, (identity, vertices))| IdentityMesh {
-                    texture: identity.bake_texture(body, TEXTURE_SIZE),
-                    side_textures: if config.view_variants && k == config.prompt {
-                        side_variants(identity)
-                            .iter()
-                            .map(|v| v.bake_texture(body, TEXTURE_SIZE))
-                            .collect()
-                    } else {
-                        Vec::new()
-                    },
-                    identity: identity.clone(),
-                    vertices: vertices.iter().map(&normalise).collect(),
-                })
-                .collect(),
-            faces: body
-                .model
-                .faces
-                .chunks(3)
-                .map(|f| [f[0], f[1], f[2]])
-                .collect(),
-            uv_coords: body.uv.coords.chunks(2).map(|c| [c[0], c[1]]).collect(),
-            uv_faces: body
-                .uv
-                .faces
-                .chunks(3)
-                .map(|f| [f[0], f[1], f[2]])
-                .collect(),
-            lighting: studio_lighting(),
-            settings: RenderSettings {
-                background: [0.0; 3],
-                supersample: 1,
-            },
-        }
     }
 }
 

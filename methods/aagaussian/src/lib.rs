@@ -8,7 +8,7 @@
 //!
 //! | Eq. | what | implemented by |
 //! |---|---|---|
-//! | Eq. 1 | SMPL-X `M(β, θ, ψ)` | [`splatzoo_models::body::lbs::pose`] (the built-in body, or a user's SMPL-family file with its marks: [`body_prior::AvatarBody`]; [`data::CanonicalPose`] is the canonical pose); β fitted from the portrait's keypoints by [`splatzoo_models::body::fit`] ([`portrait_fit`]) |
+//! | Eq. 1 | SMPL-X `M(β, θ, ψ)` | [`splatzoo_models::body::lbs::pose`] (the built-in body, or a user's SMPL-family file with its marks: [`body_prior::AvatarBody`]; [`data::CanonicalPose`] is the canonical pose); β fitted from the portrait's keypoints by [`splatzoo_models::body::fit`] ([`portrait_fit`]; a user's photo: [`photo::Photo::fit`]) |
 //! | Eq. 2 | 3DGS rendering | [`splatzoo_rasterizer::rasterize`] unchanged, SH degree 0, black background ([`trainer::render_views`]) |
 //! | Eq. 3 | `∇L_SDS = E[w_t (ε_φ(x_t; y) − ε) ∂x/∂θ]`, `x_t = α_t x + σ_t ε` | [`sds::SdsConfig::guidance`], [`sds::surrogate`], [`schedule::NoiseSchedule`] |
 //! | Eq. 4 | accumulated depth `d(p) = Σ d_i σ_i Π(1 − σ_j)`, normalised | [`loss::depth_branch`], [`loss::normalise_depth`] |
@@ -21,7 +21,7 @@
 //! | U5 | centre-weighted face colour term | [`face::face_colour_loss`], [`face::centre_weights`] |
 //! | U6 | line-of-sight distance to the body | [`face::LineOfSight::loss`] |
 //! | U7 | fixed face camera | [`data::PortraitCapture::build`] |
-//! | U8 | face crop from a portrait: 2-D similarity of the face points, resampling | [`face_align::umeyama_2d`], [`face_align::crop_from_portrait`] |
+//! | U8 | face crop from a portrait: 2-D similarity of the face points, resampling | [`face_align::umeyama_2d`], [`face_align::crop_from_portrait`]; a user's photo and its OpenPose JSON: [`photo::Photo`] |
 //! | U9 | animation binding: nearest face, barycentrics, normal offset; re-posing | [`binding::bind`], [`binding::SurfaceBinding::pose`], [`animate::animate`] |
 //! | T3 | guidance fixed points under point masses (every run's `metrics.json`) | [`fixed_points::check`] |
 //! | S1/S2 | point-mass and mixture oracles | [`oracle::MixtureOracle`], [`oracle::posterior`] |
