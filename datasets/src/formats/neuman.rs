@@ -19,6 +19,9 @@
 //!   [`Similarity`] `{s, R, A[3]}` in [`BodyFrame::world_from_smpl`]. Frames without an
 //!   alignment are not valid.
 //! - `{train,val,test}_split.txt`: one image name per line (written by NeuMan's trainer).
+//! - `depth_maps/<NAME>.npy` (else `depth_maps/<stem>.npy`), where present: NeuMan's dense
+//!   depth of each image, an (H, W) array of z-depth along the camera's axis in COLMAP's unit,
+//!   0 where unknown → [`ViewRecord::depth`] (read by `splatzoo_train::views::dataset::read_depth`).
 
 use super::colmap::{read_cameras, read_images, read_points};
 use super::{
@@ -109,6 +112,17 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
         ]
         .into_iter()
         .find(|p| p.is_file());
+        let depth_maps = root.join("depth_maps");
+        let stem = Path::new(&image.name)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let depth = [
+            depth_maps.join(format!("{}.npy", image.name)),
+            depth_maps.join(format!("{stem}.npy")),
+        ]
+        .into_iter()
+        .find(|p| p.is_file());
         views.push(ViewRecord {
             frame,
             camera_name: image.name.clone(),
@@ -118,7 +132,7 @@ pub fn load(root: &Path) -> Result<Dataset, DatasetError> {
             mask,
             mask_convention: MaskConvention::ZeroIsPerson,
             other_masks: Default::default(),
-            depth: None,
+            depth,
         });
     }
     let frame_count = views.iter().map(|v| v.frame + 1).max().unwrap_or(0);

@@ -6,6 +6,7 @@
 use super::{Similarity, SparsePoint};
 use crate::DatasetError;
 use crate::files::write_bytes;
+use crate::synth::export::write_npy_f32;
 use splatzoo_models::pickle::{Writer, npy_object_bytes};
 use splatzoo_rasterizer::Camera;
 use std::path::Path;
@@ -23,6 +24,9 @@ pub struct NeumanFrame {
     pub betas: Vec<f64>,
     /// `x_world = s R x_smpl + t`, NeuMan's alignment of this frame.
     pub alignment: Similarity,
+    /// `[H, W]` z-depth in COLMAP's unit (0 or non-finite: none), written as
+    /// `depth_maps/<NAME>.npy` where given.
+    pub depth: Option<Vec<f32>>,
 }
 
 /// The image name of frame `k`.
@@ -55,7 +59,8 @@ fn expect_len(frame: usize, what: &str, len: usize, expected: usize) -> Result<(
 /// Writes `frames` (named [`frame_name`], in order) under `root`: `sparse/` (a COLMAP text model
 /// with `points`, positions and sRGB in [0, 1]), `images/`, `segmentations/<name>` (0 = person,
 /// 255 = background), `smpl_output_optimized.pkl`, `alignments.npy`, and `test_split.txt`
-/// listing the frames `test` (not written when empty).
+/// listing the frames `test` (not written when empty); `depth_maps/<NAME>.npy` for the frames
+/// that carry a depth map.
 pub fn write_neuman_scene(
     root: &Path,
     frames: &[NeumanFrame],
@@ -112,6 +117,18 @@ pub fn write_neuman_scene(
             .collect();
         let mask = image::GrayImage::from_raw(w, h, grey).expect("length checked");
         png(&root.join("segmentations").join(frame_name(k)), mask)?;
+        if let Some(depth) = &frame.depth {
+            expect_len(k, "depth", depth.len(), pixels)?;
+            let zeroed: Vec<f32> = depth
+                .iter()
+                .map(|&d| if d.is_finite() && d > 0.0 { d } else { 0.0 })
+                .collect();
+            let dir = root.join("depth_maps");
+            std::fs::create_dir_all(&dir)
+                .map_err(|e| DatasetError::file(&dir, format!("cannot create ({e})")))?;
+            let file = dir.join(format!("{}.npy", frame_name(k)));
+            write_npy_f32(&file, &[u64::from(h), u64::from(w)], &zeroed)?;
+        }
     }
     let sparse = root.join("sparse");
     write_bytes(&sparse.join("cameras.txt"), cameras.as_bytes())?;

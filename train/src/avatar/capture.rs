@@ -27,14 +27,13 @@ fn held_out_frames(dataset: &Dataset, config: &AvatarDataConfig) -> (Vec<bool>, 
         let ids = dataset.splits.get(name).filter(|v| !v.is_empty())?;
         Some(ids.iter().map(|&i| dataset.views[i].frame).collect())
     };
-    if let (Some(train), Some(test)) = (
-        frames_of("train"),
-        frames_of("test").or_else(|| frames_of("val")),
-    ) {
+    // A capture may name its test frames alone (NeuMan's `test_split.txt`): the rest train.
+    if let Some(test) = frames_of("test").or_else(|| frames_of("val")) {
+        let train = frames_of("train");
         let held: Vec<bool> = (0..dataset.frame_count)
-            .map(|f| test.contains(&f) && !train.contains(&f))
+            .map(|f| test.contains(&f) && !train.as_ref().is_some_and(|t| t.contains(&f)))
             .collect();
-        if held.iter().any(|&h| h) {
+        if held.iter().any(|&h| h) && held.iter().any(|&h| !h) {
             return (
                 held,
                 "the capture's own split: frames only its held-out views see".into(),
@@ -160,6 +159,7 @@ pub fn load(
             frame: f,
             camera: scale_camera_world(&camera, person.world_scale),
             key: store.push(ImageSource::File(Box::new(file))),
+            record: Some(record.clone()),
         });
         if !held[f] && trains(&record.camera_name) && record.depth.is_some() {
             with_depth.push((train.len() - 1, record));
@@ -220,6 +220,8 @@ pub fn load(
     Ok(AvatarCapture {
         scenery_source,
         scenery_points,
+        downscale,
+        world_scale: person.world_scale,
         store,
         train,
         novel_view,

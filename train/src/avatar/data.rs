@@ -10,10 +10,12 @@
 //! [`ImageStore`].
 
 use crate::error::TrainError;
+use crate::views::dataset::training_depth;
 use crate::views::init_points::back_project;
 use crate::views::{Frame, ImageSource, ImageStore, InitPoints};
 use burn::tensor::{Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
+use splatzoo_datasets::formats::ViewRecord;
 use splatzoo_datasets::image_io::linear_to_srgb;
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_datasets::synth::prior::PriorNoise;
@@ -92,6 +94,9 @@ pub struct AvatarView {
     pub frame: usize,
     pub camera: Camera,
     pub key: usize,
+    /// The capture's record this view was read from (`None` for the synthetic preset's
+    /// views): its depth map, where it has one ([`AvatarCapture::depth`]).
+    pub record: Option<ViewRecord>,
 }
 
 /// A view's pixels.
@@ -135,6 +140,10 @@ pub struct AvatarCapture {
     /// capture's sparse points, or the synthetic truth's depth outside the person).
     pub scenery_points: InitPoints,
     pub scenery_source: Option<&'static str>,
+    /// The factor a capture's images are box-filtered by, and the factor its world is scaled
+    /// by so the body keeps its own size ([`crate::views::people`]); 1 for the synthetic preset.
+    pub downscale: u32,
+    pub world_scale: f64,
 }
 
 impl AvatarCapture {
@@ -144,6 +153,17 @@ impl AvatarCapture {
         let mask = person
             .ok_or_else(|| TrainError::Config(format!("view {}: no person mask", view.name)))?;
         Ok(AvatarFrame { image, mask })
+    }
+
+    /// A view's depth map at its training resolution, row-major, in the scaled world's unit
+    /// (non-finite where unknown); `None` where the capture gives none.
+    pub fn depth(&self, view: &AvatarView) -> Result<Option<Vec<f32>>, TrainError> {
+        let Some(record) = &view.record else {
+            return Ok(None);
+        };
+        let scale = self.world_scale as f32;
+        Ok(training_depth(record, self.downscale)?
+            .map(|depth| depth.into_iter().map(|d| d * scale).collect()))
     }
 }
 
@@ -178,6 +198,7 @@ fn view(truth: &ViewTruth, name: String, store: &mut ImageStore, device: &Device
         frame: truth.frame,
         camera: truth.camera,
         key,
+        record: None,
     }
 }
 
@@ -273,6 +294,8 @@ impl AvatarDataConfig {
             scenery_source: (!scenery_points.is_empty())
                 .then_some("the rendered depth outside the person"),
             scenery_points,
+            downscale: 1,
+            world_scale: 1.0,
         }
     }
 }

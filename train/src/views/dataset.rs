@@ -329,7 +329,8 @@ pub fn training_depth(record: &ViewRecord, downscale: u32) -> Result<Option<Vec<
     ))
 }
 
-/// A depth map of `w × h` in metres (non-finite where there is none).
+/// A depth map of `w × h` in the capture's unit (a `.npy` as stored; a 16-bit PNG of millimetres
+/// as metres), non-finite where there is none.
 pub fn read_depth(path: &Path, w: usize, h: usize) -> Result<Vec<f32>, DataError> {
     if path.extension().is_some_and(|e| e == "npy") {
         let array = formats::read_npy(path)?;
@@ -337,7 +338,7 @@ pub fn read_depth(path: &Path, w: usize, h: usize) -> Result<Vec<f32>, DataError
             return Err(file_error(
                 path,
                 format!(
-                    "depth of shape {:?}, expected ({h}, {w}) in metres",
+                    "depth of shape {:?}, expected ({h}, {w}) (the image's rows, columns)",
                     array.shape
                 ),
             ));

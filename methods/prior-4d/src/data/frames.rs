@@ -107,27 +107,3 @@ pub fn resized_camera(camera: &Camera, size: (u32, u32)) -> Camera {
         ..*camera
     }
 }
-
-/// Running sums of sRGB over pixels, for a capture's mean background colour.
-#[derive(Debug, Default)]
-pub struct ColourSum {
-    sum: [f64; 3],
-    count: usize,
-}
-
-impl ColourSum {
-    /// Adds `pixels` (`[N · 3]`) off `person` (every pixel where `person` is `None`).
-    pub fn add(&mut self, pixels: &[f32], person: Option<&Mask>) {
-        for (k, rgb) in pixels.chunks(3).enumerate() {
-            if person.is_none_or(|m| !m.data[k]) {
-                (0..3).for_each(|c| self.sum[c] += f64::from(rgb[c]));
-                self.count += 1;
-            }
-        }
-    }
-
-    pub fn mean(&self) -> [f32; 3] {
-        let n = self.count.max(1) as f64;
-        self.sum.map(|v| (v / n) as f32)
-    }
-}

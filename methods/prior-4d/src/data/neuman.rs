@@ -30,9 +30,7 @@
 //! - **never given**: any truth. The trainer turns off what needs a missing input and says so
 //!   (`Prior4d`'s decisions).
 
-use super::frames::{
-    ColourSum, read_image, read_person, resized_camera, training_size, undistorted,
-};
+use super::frames::{read_image, read_person, resized_camera, training_size, undistorted};
 use super::given::{
     GROUND, KEYPOINTS, MONO_DEPTH, NORMALS, given_file, read_body25, read_ground, read_mono_depth,
     read_normals, sparse_depth, write_given,
@@ -52,8 +50,8 @@ use splatzoo_models::body::builtin_body;
 use splatzoo_rasterizer::Camera;
 use splatzoo_train::avatar::track_joints;
 use splatzoo_train::host_f32;
-use splatzoo_train::views::InitPoints;
 use splatzoo_train::views::people::person_sequence;
+use splatzoo_train::views::{ColourSum, InitPoints};
 use std::path::Path;
 
 /// The built-in body's ankles and feet (SMPL's joint order).
@@ -390,6 +388,7 @@ pub fn write_acting_as_neuman(
                     rotation: [0, 1, 2].map(|i| rt.row(i).to_array()),
                     translation: (sigma * (rt * t_c) - rt * big_t).to_array(),
                 },
+                depth: None,
             }
         })
         .collect();

@@ -15,9 +15,7 @@
 //!   folds the fit's placement into (`splatzoo_train::views::people`: metres, the body its own
 //!   size), with the fit as the scan's body prior.
 
-use super::frames::{
-    ColourSum, read_image, read_person, resized_camera, training_size, undistorted,
-};
+use super::frames::{read_image, read_person, resized_camera, training_size, undistorted};
 use super::given::{GROUND, MONO_DEPTH, given_file, read_ground, read_mono_depth, sparse_depth};
 use super::sensors::{mask_tensor, scaled_camera};
 use super::{HumanScanView, Prior4dDataConfig, SceneScanView};
@@ -27,8 +25,8 @@ use splatzoo_datasets::formats::{self, Dataset};
 use splatzoo_datasets::masks::Mask;
 use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_models::body::builtin_body;
-use splatzoo_train::views::InitPoints;
 use splatzoo_train::views::people::person_sequence;
+use splatzoo_train::views::{ColourSum, InitPoints};
 use std::path::Path;
 
 fn load(root: &Path, what: &str) -> Result<Dataset, Prior4dError> {

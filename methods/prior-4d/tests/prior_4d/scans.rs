@@ -92,6 +92,7 @@ fn write_human_scan(capture: &Prior4dCapture, root: &Path) {
                 rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
                 translation: prior.translation(k),
             },
+            depth: None,
         })
         .collect();
     write_neuman_scene(root, &frames, &[([0.0; 3], [0.5; 3])], &[]).unwrap();
