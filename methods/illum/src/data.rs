@@ -13,11 +13,14 @@
 //!   light moved across the room and cooled; a coloured environment with no point light).
 //! - **Novel poses**: the same identity in a motion never trained on (turning and waving),
 //!   seen from the fixed camera, under the training light.
-//! - **Probe truth** ([`IllumCapture::probe_truth`]): the analytic SH radiance at any point
+//! - **Probe truth** ([`CaptureTruth::probe_truth`]): the analytic SH radiance at any point
 //!   ([`splatzoo_datasets::render::Lighting::radiance_sh`]), unoccluded.
 //! - **Room B** ([`Room::B`]): the same identity filmed the same way in another room under
 //!   another light ([`room_b_lighting`]), for transfer: a method reconstructs B from B's video,
 //!   moves A's human in, and B's own frames are the ground truth of the same person there.
+//!
+//! A capture on disk takes the synthetic one's place with `data.capture` ([`crate::disk`]): the
+//! same video, without the truth ([`IllumCapture::truth`], [`IllumFrame::truth`]).
 //!
 //! The renderer is linear Lambert; images are sRGB-encoded like a camera's, so a method's
 //! linear albedo is `sRGB⁻¹` of what it sees under unit light.
@@ -26,6 +29,7 @@ use crate::IllumError;
 use burn::tensor::{Device, Tensor, TensorData};
 use rayon::prelude::*;
 use splatzoo_datasets::image_io::linear_to_srgb;
+use splatzoo_datasets::pose_sequence::PoseSequence;
 use splatzoo_datasets::render::{Light, Lighting};
 use splatzoo_datasets::synth::environment;
 use splatzoo_datasets::synth::motion::{Motion, Start, generate};
@@ -35,6 +39,7 @@ use splatzoo_datasets::synth::{Preset, Scene, SceneConfig, ViewTruth};
 use splatzoo_rasterizer::Camera;
 use splatzoo_train::views::InitPoints;
 use splatzoo_train::views::init_points::back_project;
+use std::path::PathBuf;
 
 /// Which room the person is filmed in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -79,8 +84,21 @@ pub struct IllumDataConfig {
     pub supersample: usize,
     /// Shadow-map resolution per cube face.
     pub shadow_resolution: usize,
-    /// Scene points kept from the back-projected empty views.
+    /// Scene points kept from the back-projected empty views (or a capture's points).
     pub scene_points: usize,
+    /// A capture on disk in place of the synthetic one ([`crate::disk`]): any format the
+    /// loaders read with person masks and a pose track (NeuMan, ZJU-MoCap, …). The synthetic
+    /// fields above but `seed`, `test_every` and `scene_points` are then unused.
+    pub capture: Option<PathBuf>,
+    /// The capture's format (detected when absent).
+    pub format: Option<String>,
+    /// The capture's images are box-filtered by this factor.
+    pub downscale: u32,
+    /// Which of the capture's pose tracks is the person.
+    pub person: usize,
+    /// The capture's cameras that train (every camera when empty); the others' views at
+    /// training frames are held out.
+    pub train_cameras: Vec<String>,
 }
 
 impl Default for IllumDataConfig {
@@ -97,6 +115,11 @@ impl Default for IllumDataConfig {
             supersample: 2,
             shadow_resolution: 512,
             scene_points: 30_000,
+            capture: None,
+            format: None,
+            downscale: 1,
+            person: 0,
+            train_cameras: Vec::new(),
         }
     }
 }
@@ -114,6 +137,9 @@ impl IllumDataConfig {
         }
         if self.test_every < 2 {
             return bad("test_every", "must be at least 2");
+        }
+        if self.downscale == 0 {
+            return bad("downscale", "must be at least 1");
         }
         if self.supersample == 0 || self.shadow_resolution < 16 {
             return bad("supersample/shadow_resolution", "must be ≥ 1 and ≥ 16");
@@ -188,10 +214,11 @@ pub fn relighting(shadow_resolution: usize) -> Vec<(&'static str, Lighting)> {
     ]
 }
 
-/// One rendered view with its ground truth.
+/// One view of the video: what a method sees, and (synthetic captures) what only the renderer
+/// knows.
 #[derive(Debug, Clone)]
 pub struct IllumFrame {
-    /// Frame index within its clip.
+    /// Frame index within its clip (the row of the body track).
     pub frame: usize,
     pub held_out: bool,
     pub camera: Camera,
@@ -199,33 +226,61 @@ pub struct IllumFrame {
     pub image: Tensor<3>,
     /// `[H, W]` person mask (1 on the person).
     pub mask: Tensor<2>,
-    /// Camera-space depth, row-major (infinite on the background).
+    /// Camera-space depth, row-major, in metres: the renderer's (infinite on the background)
+    /// or a capture's depth map; non-finite where unknown.
     pub depth: Vec<f32>,
+    /// The person's pixels.
+    pub person: Vec<bool>,
+    /// `[H, W]` 1 where the pixel is real data (inside an undistorted image); `None` when every
+    /// pixel is ([`Self::on_real_pixels`]).
+    pub valid: Option<Tensor<2>>,
+    /// The renderer's truth of this view; `None` for a capture on disk.
+    pub truth: Option<FrameTruth>,
+}
+
+/// What the renderer knows of a view beyond its image.
+#[derive(Debug, Clone)]
+pub struct FrameTruth {
     /// Linear albedo of what each pixel sees.
     pub albedo: Vec<[f32; 3]>,
-    /// Linear colour of the same view with shadows (what `image` encodes).
+    /// Linear colour of the view with shadows (what the image encodes).
     pub linear: Vec<[f32; 3]>,
     /// Linear colour of the same view without the person.
     pub empty: Vec<[f32; 3]>,
     /// Depth of the view without the person (the room behind).
     pub empty_depth: Vec<f32>,
-    /// The person's pixels.
-    pub person: Vec<bool>,
 }
 
 impl IllumFrame {
+    /// `rendered` (on the autodiff device) where this frame's pixels are real data and
+    /// `observed` (the frame's image on the same device) elsewhere, so no loss or score counts
+    /// the pixels an undistortion left empty.
+    pub fn on_real_pixels(&self, rendered: Tensor<3>, observed: Tensor<3>) -> Tensor<3> {
+        let Some(valid) = &self.valid else {
+            return rendered;
+        };
+        let [h, w, _] = self.image.dims();
+        let v = valid.clone().autodiff().reshape([h, w, 1]);
+        rendered * v.clone() + observed.detach() * (v.neg() + 1.0)
+    }
+
     /// The ground-truth occlusion `I_with / I_without` on pixels the person does not cover
-    /// (`None` on the person and where the empty view is black).
-    pub fn shadow_ratio(&self) -> Vec<Option<f32>> {
-        self.linear
-            .iter()
-            .zip(&self.empty)
-            .zip(&self.person)
-            .map(|((with, without), &person)| {
-                let (a, b) = (with.iter().sum::<f32>(), without.iter().sum::<f32>());
-                (!person && b > 1e-4).then(|| a / b)
-            })
-            .collect()
+    /// (`None` on the person and where the empty view is black); `None` without the
+    /// renderer's truth (a capture on disk has no person-free view of each frame).
+    pub fn shadow_ratio(&self) -> Option<Vec<Option<f32>>> {
+        let truth = self.truth.as_ref()?;
+        Some(
+            truth
+                .linear
+                .iter()
+                .zip(&truth.empty)
+                .zip(&self.person)
+                .map(|((with, without), &person)| {
+                    let (a, b) = (with.iter().sum::<f32>(), without.iter().sum::<f32>());
+                    (!person && b > 1e-4).then(|| a / b)
+                })
+                .collect(),
+        )
     }
 }
 
@@ -236,30 +291,50 @@ pub struct RelitFrame {
     pub frame: IllumFrame,
 }
 
-/// The whole capture.
+/// The whole capture: the video a method trains on and, for the synthetic capture, its truth.
 #[derive(Debug, Clone)]
 pub struct IllumCapture {
     pub config: IllumDataConfig,
-    /// The scene as rendered (people, tracks, the training light, the person's prior track).
-    pub scene: Scene,
-    /// The hand-held video, training and held-out frames in order.
+    /// The video, training and held-out frames in order.
     pub frames: Vec<IllumFrame>,
+    /// The body track a tracker hands over (one row per frame, metres): the generator's
+    /// perturbed prior, or a capture's own fit ([`crate::disk`]).
+    pub prior: PoseSequence,
+    /// sRGB points the scene starts from.
+    pub scene_points: InitPoints,
+    /// The room's background colour, sRGB.
+    pub background: [f32; 3],
+    /// What reading the capture decided, and why (printed at start).
+    pub decisions: Vec<String>,
+    /// What only the synthetic capture knows; `None` for a capture on disk.
+    pub truth: Option<CaptureTruth>,
+}
+
+/// The synthetic capture's truth: what the truth scores (albedo, relit, shadow region, novel
+/// poses, probes) compare against.
+#[derive(Debug, Clone)]
+pub struct CaptureTruth {
+    /// The scene as rendered (people with their true motion, tracks, the training light).
+    pub scene: Scene,
     pub relit: Vec<RelitFrame>,
     pub novel_pose: Vec<IllumFrame>,
     /// The person of the novel-pose clip (its true motion drives evaluation).
     pub novel_person: Person,
-    /// sRGB points of the room, back-projected from the training frames' empty views.
-    pub scene_points: InitPoints,
-    /// The room's background colour, sRGB.
-    pub background: [f32; 3],
 }
 
-impl IllumCapture {
+impl CaptureTruth {
     /// The analytic SH radiance (degree 2) of the training light at `point`, unoccluded.
     pub fn probe_truth(&self, point: [f64; 3]) -> [[f64; 3]; 9] {
         self.scene.lighting.radiance_sh(point)
     }
 
+    /// The motion the capture was rendered with.
+    pub fn motion(&self) -> &PoseSequence {
+        &self.scene.people[0].motion
+    }
+}
+
+impl IllumCapture {
     pub fn train_frames(&self) -> impl Iterator<Item = &IllumFrame> {
         self.frames.iter().filter(|f| !f.held_out)
     }
@@ -286,18 +361,24 @@ fn frame_of(truth: &ViewTruth, empty: &ViewTruth, held_out: bool, device: &Devic
         image: Tensor::from_data(TensorData::new(srgb, [h, w, 3]), device),
         mask: Tensor::from_data(TensorData::new(mask, [h, w]), device),
         depth: r.depth.clone(),
-        albedo: r.albedo.clone(),
-        linear: r.color.clone(),
-        empty: empty.render.color.clone(),
-        empty_depth: empty.render.depth.clone(),
         person,
+        valid: None,
+        truth: Some(FrameTruth {
+            albedo: r.albedo.clone(),
+            linear: r.color.clone(),
+            empty: empty.render.color.clone(),
+            empty_depth: empty.render.depth.clone(),
+        }),
     }
 }
 
 impl IllumDataConfig {
-    /// Builds and renders the capture.
+    /// Builds and renders the synthetic capture, or reads `capture` from disk.
     pub fn build(&self, device: &Device) -> Result<IllumCapture, IllumError> {
         self.validate()?;
+        if let Some(path) = &self.capture {
+            return crate::disk::read_capture(self, path, device);
+        }
         let mut scene = SceneConfig {
             width: self.width,
             height: self.height,
@@ -410,15 +491,19 @@ impl IllumDataConfig {
             .collect();
 
         let mut scene_points = InitPoints::default();
-        for frame in frames.iter().filter(|f| !f.held_out) {
-            let srgb: Vec<f32> = frame
+        for (frame, truth) in frames
+            .iter()
+            .filter(|f| !f.held_out)
+            .filter_map(|f| Some((f, f.truth.as_ref()?)))
+        {
+            let srgb: Vec<f32> = truth
                 .empty
                 .iter()
                 .flat_map(|c| c.map(|v| linear_to_srgb(v.clamp(0.0, 1.0))))
                 .collect();
             back_project(
                 &frame.camera,
-                &frame.empty_depth,
+                &truth.empty_depth,
                 &srgb,
                 4,
                 &mut scene_points,
@@ -426,15 +511,23 @@ impl IllumDataConfig {
         }
         let scene_points = scene_points.thinned(self.scene_points, self.seed ^ 0x1E11_0001);
         let background = scene.environment.background.map(linear_to_srgb);
+        let prior = scene.people[0].prior.clone();
         Ok(IllumCapture {
             config: self.clone(),
-            scene,
             frames,
-            relit,
-            novel_pose,
-            novel_person,
+            prior,
             scene_points,
             background,
+            decisions: vec![format!(
+                "synthetic capture: room {:?} under the {:?} light, {}×{}, {} frames",
+                self.room, self.light, self.width, self.height, self.frames
+            )],
+            truth: Some(CaptureTruth {
+                scene,
+                relit,
+                novel_pose,
+                novel_person,
+            }),
         })
     }
 }

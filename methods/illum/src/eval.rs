@@ -20,9 +20,12 @@
 //!   frame, beside the majority rate (what a constant guess scores).
 //! - **Probes**: the relative RMS error of the gain-corrected learned probe SH against the
 //!   analytic SH of the training light.
+//!
+//! Albedo, relit, shadow-region, novel-pose and probe scores need the synthetic capture's truth
+//! ([`TruthScores`]); a capture on disk gets the image, human-crop and F_vis scores alone.
 
 use crate::IllumError;
-use crate::data::{IllumFrame, relighting};
+use crate::data::{CaptureTruth, IllumFrame, relighting};
 use crate::human::pose_refined;
 use crate::light_volume::LightVolume;
 use crate::render::{HumanLayer, JointMaps, SceneLayer, render_joint};
@@ -50,6 +53,18 @@ pub struct IllumScores {
     pub human_psnr: f64,
     pub human_ssim: f64,
     pub human_lpips: Option<f64>,
+    /// F_vis's accuracy on held-out poses and the labels' majority rate (trained F_vis only).
+    pub visibility_accuracy: Option<f64>,
+    pub visibility_majority: Option<f64>,
+    /// The scores only the synthetic capture's truth allows (flattened into the JSON: the
+    /// keys are absent for a capture on disk).
+    #[serde(flatten)]
+    pub truth: Option<TruthScores>,
+}
+
+/// Scores against what only the renderer knows.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TruthScores {
     /// Stage 2 with the light volume only.
     pub albedo_psnr: Option<f64>,
     /// Mean human-crop PSNR over the relit frames, and per light.
@@ -61,9 +76,6 @@ pub struct IllumScores {
     pub shadow_error_without_ao: Option<f64>,
     pub novel_pose_psnr: f64,
     pub probe_relative_error: Option<f64>,
-    /// F_vis's accuracy on held-out poses and the labels' majority rate (trained F_vis only).
-    pub visibility_accuracy: Option<f64>,
-    pub visibility_majority: Option<f64>,
 }
 
 /// `s` on the autodiff device without gradient tracking (renders for scores and exports
@@ -189,14 +201,19 @@ impl IllumTrainer {
         )
     }
 
-    /// The learned probes' per-channel gain against the analytic SH of the training light.
-    pub fn probe_gain(&self) -> [f64; 3] {
+    /// The learned probes' per-channel gain against the analytic SH of the training light
+    /// (`None` where the capture does not know its light).
+    pub fn probe_gain(&self) -> Option<[f64; 3]> {
+        Some(self.probe_gain_against(self.capture.truth.as_ref()?))
+    }
+
+    fn probe_gain_against(&self, truth: &CaptureTruth) -> [f64; 3] {
         let grid = *self.volume.grid();
         let sh = host_f32(&self.volume.sh.val());
         let k = sh.len() / (3 * grid.count());
         let pairs: Vec<([f64; 3], [f64; 3])> = (0..grid.count())
             .flat_map(|p| {
-                let truth = self.capture.probe_truth(grid.position(p));
+                let truth = truth.probe_truth(grid.position(p));
                 let sh = &sh;
                 (0..k.min(9)).map(move |j| {
                     let learned = [0, 1, 2].map(|c| f64::from(sh[(p * k + j) * 3 + c]));
@@ -208,13 +225,13 @@ impl IllumTrainer {
     }
 
     /// Relative RMS error of `gain × truth` against the learned probes.
-    fn probe_error(&self, gain: [f64; 3]) -> f64 {
+    fn probe_error(&self, truth: &CaptureTruth, gain: [f64; 3]) -> f64 {
         let grid = *self.volume.grid();
         let sh = host_f32(&self.volume.sh.val());
         let k = sh.len() / (3 * grid.count());
         let (mut err, mut norm) = (0.0, 0.0);
         for p in 0..grid.count() {
-            let truth = self.capture.probe_truth(grid.position(p));
+            let truth = truth.probe_truth(grid.position(p));
             for j in 0..k {
                 for c in 0..3 {
                     let t = if j < 9 { gain[c] * truth[j][c] } else { 0.0 };
@@ -229,7 +246,7 @@ impl IllumTrainer {
     /// A copy of the volume whose probes change by `gain ×` the analytic change from the
     /// training light to `lighting`.
     fn relit_volume(
-        &self,
+        truth: &CaptureTruth,
         volume: &LightVolume,
         lighting: &splatzoo_datasets::render::Lighting,
         gain: [f64; 3],
@@ -239,10 +256,7 @@ impl IllumTrainer {
         let mut values = host_f32(&volume.sh.val());
         for i in 0..p {
             let position = grid.position(i);
-            let (new, old) = (
-                lighting.radiance_sh(position),
-                self.capture.probe_truth(position),
-            );
+            let (new, old) = (lighting.radiance_sh(position), truth.probe_truth(position));
             for j in 0..k.min(9) {
                 for c in 0..3 {
                     values[(i * k + j) * 3 + c] += (gain[c] * (new[j][c] - old[j][c])) as f32;
@@ -252,7 +266,7 @@ impl IllumTrainer {
         let mut relit = volume.clone();
         relit.sh = Param::from_tensor(Tensor::from_data(
             TensorData::new(values, [p, k, 3]),
-            &self.autodiff,
+            &volume.sh.val().device(),
         ));
         relit
     }
@@ -302,33 +316,35 @@ impl IllumTrainer {
             frames: tests.len(),
             ..IllumScores::default()
         };
+        let mut truth_scores = TruthScores::default();
         let pbr = self.stage2.is_some() && self.config.ablation.light_volume;
         let mut lp = (0.0, 0.0);
         let mut albedo_pairs = Vec::new();
-        let mut albedo_frames = Vec::new();
         let (mut shadow_sum, mut shadow_open_sum) = (0.0, 0.0);
         for frame in &tests {
             let pose = self.frame_pose(frame.frame, true);
             let maps = self.render_view(nets, &frame.camera, &pose, true)?;
             let image = frame.image.clone().autodiff();
-            scores.psnr += psnr(maps.colour.clone(), image.clone());
-            scores.ssim += scalar(ssim(maps.colour.clone(), image.clone()));
+            let colour = frame.on_real_pixels(maps.colour.clone(), image.clone());
+            scores.psnr += psnr(colour.clone(), image.clone());
+            scores.ssim += scalar(ssim(colour.clone(), image.clone()));
             if let Some(l) = lpips {
-                lp.0 += scalar(l.distance(maps.colour.clone().inner(), frame.image.clone()));
+                lp.0 += scalar(l.distance(colour.clone().inner(), frame.image.clone()));
             }
             if let Some((rows, cols)) = person_box(frame) {
                 let crop = |t: Tensor<3>| t.slice([rows.clone(), cols.clone(), 0..3]);
-                scores.human_psnr += psnr(crop(maps.colour.clone()), crop(image.clone()));
-                scores.human_ssim += scalar(ssim(crop(maps.colour.clone()), crop(image.clone())));
+                scores.human_psnr += psnr(crop(colour.clone()), crop(image.clone()));
+                scores.human_ssim += scalar(ssim(crop(colour.clone()), crop(image.clone())));
                 if let Some(l) = lpips {
-                    lp.1 += scalar(
-                        l.distance(crop(maps.colour.clone()).inner(), crop(frame.image.clone())),
-                    );
+                    lp.1 +=
+                        scalar(l.distance(crop(colour.clone()).inner(), crop(frame.image.clone())));
                 }
             }
+            let (Some(ratio), Some(truth)) = (frame.shadow_ratio(), &frame.truth) else {
+                continue;
+            };
             let rendered = host_f32(&maps.colour);
-            let truth = host_f32(&frame.image);
-            let ratio = frame.shadow_ratio();
+            let observed = host_f32(&frame.image);
             let shadowed: Vec<usize> = (0..ratio.len())
                 .filter(|&i| ratio[i].is_some_and(|r| r < SHADOW_RATIO))
                 .collect();
@@ -336,10 +352,10 @@ impl IllumTrainer {
                 shadowed
                     .iter()
                     .flat_map(|&i| (0..3).map(move |c| 3 * i + c))
-                    .map(|j| f64::from((values[j] - truth[j]).abs()))
+                    .map(|j| f64::from((values[j] - observed[j]).abs()))
                     .sum::<f64>()
             };
-            scores.shadow_pixels += shadowed.len();
+            truth_scores.shadow_pixels += shadowed.len();
             shadow_sum += error(&rendered);
             if self.config.ablation.shadow_decoder() {
                 let open = self.render_view(nets, &frame.camera, &pose, false)?;
@@ -348,15 +364,13 @@ impl IllumTrainer {
             if pbr {
                 let albedo = host_f32(&maps.albedo);
                 let alpha = host_f32(&maps.human_alpha);
-                let start = albedo_pairs.len();
                 for (i, &person) in frame.person.iter().enumerate() {
                     if person && alpha[i] > 0.5 {
                         let x = [0, 1, 2].map(|c| f64::from(albedo[3 * i + c]));
-                        let y = frame.albedo[i].map(f64::from);
+                        let y = truth.albedo[i].map(f64::from);
                         albedo_pairs.push((x, y));
                     }
                 }
-                albedo_frames.push(start..albedo_pairs.len());
             }
         }
         let n = tests.len().max(1) as f64;
@@ -368,10 +382,18 @@ impl IllumTrainer {
             scores.lpips = Some(lp.0 / n);
             scores.human_lpips = Some(lp.1 / n);
         }
-        let pixels = (3 * scores.shadow_pixels).max(1) as f64;
-        scores.shadow_error = shadow_sum / pixels;
+        if pbr && self.config.visibility.source == crate::visibility::VisibilitySource::Net {
+            let (accuracy, majority) = self.visibility_scores(&tests);
+            scores.visibility_accuracy = Some(accuracy);
+            scores.visibility_majority = Some(majority);
+        }
+        let Some(truth) = &self.capture.truth else {
+            return Ok(scores);
+        };
+        let pixels = (3 * truth_scores.shadow_pixels).max(1) as f64;
+        truth_scores.shadow_error = shadow_sum / pixels;
         if self.config.ablation.shadow_decoder() {
-            scores.shadow_error_without_ao = Some(shadow_open_sum / pixels);
+            truth_scores.shadow_error_without_ao = Some(shadow_open_sum / pixels);
         }
         if pbr && !albedo_pairs.is_empty() {
             let gain = channel_gains(&albedo_pairs);
@@ -380,18 +402,15 @@ impl IllumTrainer {
                 .map(|(x, y)| (0..3).map(|c| (gain[c] * x[c] - y[c]).powi(2)).sum::<f64>())
                 .sum::<f64>()
                 / (3 * albedo_pairs.len()) as f64;
-            scores.albedo_psnr = Some(-10.0 * mse.max(1e-20).log10());
+            truth_scores.albedo_psnr = Some(-10.0 * mse.max(1e-20).log10());
         }
-        self.relit_scores(nets, &mut scores)?;
-        self.novel_pose_scores(nets, &mut scores)?;
+        let gain = self.probe_gain_against(truth);
+        self.relit_scores(nets, truth, gain, &mut truth_scores)?;
+        self.novel_pose_scores(nets, truth, &mut truth_scores)?;
         if pbr {
-            scores.probe_relative_error = Some(self.probe_error(self.probe_gain()));
+            truth_scores.probe_relative_error = Some(self.probe_error(truth, gain));
         }
-        if pbr && self.config.visibility.source == crate::visibility::VisibilitySource::Net {
-            let (accuracy, majority) = self.visibility_scores(&tests);
-            scores.visibility_accuracy = Some(accuracy);
-            scores.visibility_majority = Some(majority);
-        }
+        scores.truth = Some(truth_scores);
         Ok(scores)
     }
 
@@ -427,18 +446,22 @@ impl IllumTrainer {
         (right as f64 / total, open.max(1.0 - open))
     }
 
-    fn relit_scores(&self, nets: Nets, scores: &mut IllumScores) -> Result<(), IllumError> {
-        let gain = self.probe_gain();
+    fn relit_scores(
+        &self,
+        nets: Nets,
+        truth: &CaptureTruth,
+        gain: [f64; 3],
+        scores: &mut TruthScores,
+    ) -> Result<(), IllumError> {
         let lights = relighting(self.config.data.shadow_resolution);
         let mut all = (0.0, 0usize);
         for (name, lighting) in &lights {
-            let relit = self.relit_volume(nets.volume, lighting, gain);
+            let relit = Self::relit_volume(truth, nets.volume, lighting, gain);
             let relit_nets = Nets {
                 volume: &relit,
                 ..nets
             };
-            let frames: Vec<_> = self
-                .capture
+            let frames: Vec<_> = truth
                 .relit
                 .iter()
                 .filter(|r| r.light == *name)
@@ -468,15 +491,15 @@ impl IllumTrainer {
         Ok(())
     }
 
-    fn novel_pose_scores(&self, nets: Nets, scores: &mut IllumScores) -> Result<(), IllumError> {
-        let track = &self.capture.novel_person.motion;
+    fn novel_pose_scores(
+        &self,
+        nets: Nets,
+        truth: &CaptureTruth,
+        scores: &mut TruthScores,
+    ) -> Result<(), IllumError> {
+        let track = &truth.novel_person.motion;
         let mut sum = (0.0, 0usize);
-        for frame in self
-            .capture
-            .novel_pose
-            .iter()
-            .step_by(self.config.eval_stride)
-        {
+        for frame in truth.novel_pose.iter().step_by(self.config.eval_stride) {
             let pose = self.pose_of(track, frame.frame, true);
             let maps = self.render_view(nets, &frame.camera, &pose, true)?;
             sum.0 += psnr(maps.colour, frame.image.clone().autodiff());

@@ -7,7 +7,7 @@
 //! - `posed_frame_<t>.ply`: scene and human together at the first held-out frame, the human's
 //!   shaded colour baked into its DC and its material maps as extra properties (`human`,
 //!   `albedo_0..2`, `metallic`, `roughness`; normals in `nx ny nz`; zeros on the scene's rows);
-//! - `renders/test_<t>.png`: render | truth | albedo | scene occlusion for each scored
+//! - `renders/test_<k>.png` (the `k`-th scored view): render | truth | albedo | scene occlusion for each scored
 //!   held-out frame, and `test.gif` of the renders;
 //! - `onnx/`: F_Δ and F_c (their hash encodings and networks), and where stage 2 ran F_vis, F_ao
 //!   and F_m, with test vectors, checked in tract.
@@ -170,7 +170,8 @@ pub fn write_outputs(
                 .clamp(0.0, 1.0),
         );
         let row = side_by_side(&[image.clone(), srgb_image(&frame.image), albedo, ao]);
-        write_png(&renders.join(format!("test_{:04}.png", frame.frame)), &row)?;
+        // Named by the scored view's place (a multi-camera capture has several views a frame).
+        write_png(&renders.join(format!("test_{k:04}.png")), &row)?;
         frames.push(image);
         if k == 0 {
             // Scene and human at this frame, the human's shaded colour baked in.

@@ -32,6 +32,7 @@
 pub mod brdf;
 pub mod config;
 pub mod data;
+pub mod disk;
 pub mod environment;
 mod error;
 pub mod eval;

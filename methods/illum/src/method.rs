@@ -91,18 +91,32 @@ impl Illum {
     fn decisions_for(trainer: &IllumTrainer) -> Vec<String> {
         let c = &trainer.config;
         let grid = trainer.volume.grid();
-        let mut lines = vec![
-            format!(
-                "capture: {} frames ({} trained, every {}th held out), {} relit frames under {} \
-                 lights, {} novel-pose frames, {} scene points",
-                trainer.capture.frames.len(),
-                trainer.train.len(),
-                c.data.test_every,
-                trainer.capture.relit.len(),
-                2,
-                trainer.capture.novel_pose.len(),
-                trainer.capture.scene_points.len()
-            ),
+        let mut lines = trainer.capture.decisions.clone();
+        let truth = trainer.capture.truth.as_ref();
+        lines.push(format!(
+            "capture: {} frames ({} trained, {} held out), {} relit frames, {} novel-pose \
+             frames, {} scene points",
+            trainer.capture.frames.len(),
+            trainer.train.len(),
+            trainer.capture.test_frames().count(),
+            truth.map_or(0, |t| t.relit.len()),
+            truth.map_or(0, |t| t.novel_pose.len()),
+            trainer.capture.scene_points.len()
+        ));
+        lines.push(match (c.poses, truth) {
+            (crate::config::PoseTrack::True, Some(_)) => {
+                "poses: the true motion (poses = \"true\")".to_owned()
+            }
+            (crate::config::PoseTrack::Prior, _) => {
+                "poses: the capture's prior track (poses = \"prior\")".to_owned()
+            }
+            (crate::config::PoseTrack::True, None) => {
+                "poses: the capture's own track (poses = \"true\" asks for a truth a capture on \
+                 disk does not have)"
+                    .to_owned()
+            }
+        });
+        lines.extend([
             format!(
                 "human: built-in body, {} subdivision(s), {} vertices, {} face Gaussians",
                 c.stage1.body.subdivisions,
@@ -119,7 +133,7 @@ impl Illum {
                 c.light.degree,
                 c.light.latent_dim
             ),
-        ];
+        ]);
         lines.push(if c.ablation.two_stage {
             format!(
                 "schedule: stage 1 for {} steps, stage 2 to step {}",
@@ -237,11 +251,12 @@ impl Method for Illum {
 
     fn describe(&self) -> String {
         let t = &self.trainer;
+        let first = &t.capture.frames[t.train[0]].camera;
         format!(
             "{} training frames at {}×{}; scene {} Gaussians, human {} Gaussians, {} probes",
             t.train.len(),
-            t.config.data.width,
-            t.config.data.height,
+            first.width,
+            first.height,
             t.scene.gaussians(),
             t.stage2
                 .as_ref()

@@ -5,8 +5,8 @@
 //! would still pay for its evaluation on the scene Gaussians in the person's box and for the
 //! smoothness term (Eq. 12).
 //!
-//! The rule reads the training frames alone: each carries the same view rendered without the
-//! person ([`crate::data::IllumFrame::shadow_ratio`]), so a pixel the person does not cover
+//! The rule reads the training frames alone: each synthetic frame carries the same view
+//! rendered without the person ([`crate::data::IllumFrame::shadow_ratio`]), so a pixel the person does not cover
 //! is *shadowed* where it is darker by at least [`DARKENING`]. Pixels next to the person are
 //! left out: anti-aliasing blends the person into them (under diffuse light they alone make
 //! 0.2 % of the scene pixels "darker" at 160×120). A frame *shows* the shadow when
@@ -35,19 +35,20 @@ pub struct CastShadow {
 }
 
 impl CastShadow {
-    /// Measures the training frames of `capture`.
-    pub fn measure(capture: &IllumCapture) -> Self {
+    /// Measures the training frames of `capture`; `None` where they carry no person-free
+    /// view (a capture on disk).
+    pub fn measure(capture: &IllumCapture) -> Option<Self> {
         let mut frames = 0;
         let mut frames_showing = 0;
         let mut fraction_sum = 0.0;
         for frame in capture.train_frames() {
+            let ratio = frame.shadow_ratio()?;
             let near = beside_person(
                 &frame.person,
                 frame.camera.width as usize,
                 frame.camera.height as usize,
             );
-            let ratios: Vec<f32> = frame
-                .shadow_ratio()
+            let ratios: Vec<f32> = ratio
                 .into_iter()
                 .zip(&near)
                 .filter_map(|(ratio, &near)| ratio.filter(|_| !near))
@@ -61,11 +62,11 @@ impl CastShadow {
                 frames_showing += 1;
             }
         }
-        Self {
+        Some(Self {
             frames_showing,
             frames,
             mean_pixel_fraction: fraction_sum / frames.max(1) as f64,
-        }
+        })
     }
 
     /// Whether enough training frames show the shadow.
@@ -94,23 +95,36 @@ fn beside_person(person: &[bool], w: usize, h: usize) -> Vec<bool> {
     near
 }
 
-/// The shadow decoder's decision: `forced` (`ablation.shadow`) wins, otherwise the rule.
+/// The shadow decoder's decision: `forced` (`ablation.shadow`) wins, otherwise the rule; a
+/// capture without person-free views cannot be measured, so the decoder is built there (the
+/// paper's full model).
 pub fn shadow_decoder(forced: Option<bool>, capture: &IllumCapture) -> ModuleChoice {
-    let shadow = CastShadow::measure(capture);
-    let why = format!(
-        "the person's shadow (≥ {:.0} % darker) covers {:.2} % of the scene pixels on average \
-         and shows in {} of {} training frames (built when ≥ {:.0} % of them show it)",
-        100.0 * DARKENING,
-        100.0 * shadow.mean_pixel_fraction,
-        shadow.frames_showing,
-        shadow.frames,
-        100.0 * MIN_FRAME_FRACTION,
-    );
+    let (needed, why) = match CastShadow::measure(capture) {
+        Some(shadow) => (
+            shadow.needs_decoder(),
+            format!(
+                "the person's shadow (≥ {:.0} % darker) covers {:.2} % of the scene pixels on \
+                 average and shows in {} of {} training frames (built when ≥ {:.0} % of them \
+                 show it)",
+                100.0 * DARKENING,
+                100.0 * shadow.mean_pixel_fraction,
+                shadow.frames_showing,
+                shadow.frames,
+                100.0 * MIN_FRAME_FRACTION,
+            ),
+        ),
+        None => (
+            true,
+            "the capture has no person-free view of its frames to measure the cast shadow by; \
+             built, as the paper's full model"
+                .to_owned(),
+        ),
+    };
     ModuleChoice::decide(
         "shadow decoder F_ao (Eq. 8–9)",
         "ablation.shadow",
         forced,
-        shadow.needs_decoder(),
+        needed,
         why,
     )
 }

@@ -54,6 +54,8 @@ pub struct Nets<'a> {
 
 /// One training frame's targets.
 struct Target {
+    /// Index into `capture.frames`.
+    index: usize,
     camera: Camera,
     image: Tensor<3>,
     mask: Tensor<2>,
@@ -98,6 +100,7 @@ impl IllumTrainer {
             .unzip();
         let a = &self.autodiff;
         Target {
+            index: k,
             camera: f.camera,
             image: f.image.clone().autodiff(),
             mask: f.mask.clone().autodiff(),
@@ -141,7 +144,9 @@ impl IllumTrainer {
         in_box: &[bool],
     ) -> (Tensor<1>, f64, f64) {
         let w = &self.config.weights;
-        let scene = photometric(joint.colour.clone(), target.image.clone(), w.ssim);
+        let frame = &self.capture.frames[target.index];
+        let joint_colour = frame.on_real_pixels(joint.colour.clone(), target.image.clone());
+        let scene = photometric(joint_colour, target.image.clone(), w.ssim);
         let [h, wd, _] = target.image.dims();
         let mask = target.mask.clone().reshape([h, wd, 1]);
         let background =

@@ -133,12 +133,12 @@ fn as_points(host: &[f32]) -> Vec<[f32; 3]> {
 }
 
 impl IllumTrainer {
-    /// The body track the config names.
+    /// The body track the config names: the true motion where the capture knows it and
+    /// `poses = "true"`, else the capture's prior track (a capture on disk has only its own).
     pub fn track(&self) -> &PoseSequence {
-        let person = &self.capture.scene.people[0];
-        match self.config.poses {
-            PoseTrack::True => &person.motion,
-            PoseTrack::Prior => &person.prior,
+        match (self.config.poses, &self.capture.truth) {
+            (PoseTrack::True, Some(truth)) => truth.motion(),
+            _ => &self.capture.prior,
         }
     }
 

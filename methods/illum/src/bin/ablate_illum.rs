@@ -11,7 +11,7 @@
 
 use clap::Parser;
 use splatzoo_illum::config::IllumConfig;
-use splatzoo_illum::eval::IllumScores;
+use splatzoo_illum::eval::{IllumScores, TruthScores};
 use splatzoo_illum::method::Illum;
 use splatzoo_train::TrainError;
 use splatzoo_train::harness::{Method, MethodConfig, arms};
@@ -51,23 +51,27 @@ struct Args {
 const HEADER: &str = "arm,seed,psnr,ssim,human_psnr,human_ssim,albedo_psnr,relit_human_psnr,\
                       shadow_error,shadow_error_without_ao,novel_pose_psnr,probe_relative_error,seconds";
 
-fn optional(value: Option<f64>) -> String {
-    value.map_or_else(String::new, |v| format!("{v:.4}"))
+/// A cell of `digits` decimals, empty where the score is absent.
+fn optional(value: Option<f64>, digits: usize) -> String {
+    value.map_or_else(String::new, |v| format!("{v:.digits$}"))
 }
 
+/// One arm's row; the truth scores' cells stay empty on a capture on disk.
 fn csv_row(arm: &str, seed: u64, s: &IllumScores, seconds: f64) -> String {
+    let t = s.truth.as_ref();
+    let truth = |f: fn(&TruthScores) -> Option<f64>, digits| optional(t.and_then(f), digits);
     format!(
-        "{arm},{seed},{:.3},{:.4},{:.3},{:.4},{},{:.3},{:.5},{},{:.3},{},{seconds:.0}",
+        "{arm},{seed},{:.3},{:.4},{:.3},{:.4},{},{},{},{},{},{},{seconds:.0}",
         s.psnr,
         s.ssim,
         s.human_psnr,
         s.human_ssim,
-        optional(s.albedo_psnr),
-        s.relit_human_psnr,
-        s.shadow_error,
-        optional(s.shadow_error_without_ao),
-        s.novel_pose_psnr,
-        optional(s.probe_relative_error),
+        truth(|t| t.albedo_psnr, 4),
+        truth(|t| Some(t.relit_human_psnr), 3),
+        truth(|t| Some(t.shadow_error), 5),
+        truth(|t| t.shadow_error_without_ao, 4),
+        truth(|t| Some(t.novel_pose_psnr), 3),
+        truth(|t| t.probe_relative_error, 4),
     )
 }
 

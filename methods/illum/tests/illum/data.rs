@@ -41,6 +41,7 @@ fn the_capture_holds_the_ground_truth_the_claims_need() {
         .iter()
         .map(|f| {
             f.shadow_ratio()
+                .expect("the synthetic capture's truth")
                 .iter()
                 .filter(|r| r.is_some_and(|r| r < 0.95))
                 .count()
@@ -49,7 +50,14 @@ fn the_capture_holds_the_ground_truth_the_claims_need() {
     assert!(shadowed > 5, "only {shadowed} shadowed pixels");
     // The albedo buffer is reflectance, not shaded colour.
     for f in &capture.frames {
-        assert!(f.albedo.iter().flatten().all(|&a| (0.0..=1.0).contains(&a)));
+        let truth = f.truth.as_ref().expect("the synthetic capture's truth");
+        assert!(
+            truth
+                .albedo
+                .iter()
+                .flatten()
+                .all(|&a| (0.0..=1.0).contains(&a))
+        );
         let image = values(f.image.clone());
         assert!(
             image
@@ -57,13 +65,17 @@ fn the_capture_holds_the_ground_truth_the_claims_need() {
                 .all(|v| v.is_finite() && (0.0..=1.0).contains(v))
         );
     }
+    let truth = capture
+        .truth
+        .as_ref()
+        .expect("the synthetic capture's truth");
     // The light varies across the room: the probe radiance near the lamp is brighter.
-    let near = capture.probe_truth([2.0, 1.2, 0.5])[0][0];
-    let far = capture.probe_truth([-2.0, 1.2, -1.0])[0][0];
+    let near = truth.probe_truth([2.0, 1.2, 0.5])[0][0];
+    let far = truth.probe_truth([-2.0, 1.2, -1.0])[0][0];
     assert!(near > 2.0 * far, "near {near} vs far {far}");
     // Two other lights on each held-out frame, changing the person's pixels.
-    assert_eq!(capture.relit.len(), 4);
-    for relit in &capture.relit {
+    assert_eq!(truth.relit.len(), 4);
+    for relit in &truth.relit {
         let original = capture
             .frames
             .iter()
@@ -85,13 +97,8 @@ fn the_capture_holds_the_ground_truth_the_claims_need() {
             relit.light
         );
     }
-    assert_eq!(capture.novel_pose.len(), 3);
-    assert!(
-        capture
-            .novel_pose
-            .iter()
-            .all(|f| f.person.iter().any(|&p| p))
-    );
+    assert_eq!(truth.novel_pose.len(), 3);
+    assert!(truth.novel_pose.iter().all(|f| f.person.iter().any(|&p| p)));
     assert!(capture.scene_points.len() > 100);
 }
 
@@ -128,19 +135,18 @@ fn room_b_films_the_same_person_elsewhere() {
     }
     .build(&device)
     .unwrap();
-    let (pa, pb) = (&a.scene.people[0], &b.scene.people[0]);
+    let (ta, tb) = (a.truth.as_ref().unwrap(), b.truth.as_ref().unwrap());
+    let (pa, pb) = (&ta.scene.people[0], &tb.scene.people[0]);
     assert_eq!(pa.identity.betas, pb.identity.betas);
     assert_eq!(pa.motion.poses, pb.motion.poses);
-    assert_ne!(a.scene.lighting, b.scene.lighting);
+    assert_ne!(ta.scene.lighting, tb.scene.lighting);
     // The room differs where the person is not: the empty views disagree.
-    let differs = a.frames[0]
-        .empty
+    let empty = |c: &splatzoo_illum::data::IllumCapture| c.frames[0].truth.clone().unwrap().empty;
+    let (ea, eb) = (empty(&a), empty(&b));
+    let differs = ea
         .iter()
-        .zip(&b.frames[0].empty)
+        .zip(&eb)
         .filter(|(x, y)| (0..3).any(|c| (x[c] - y[c]).abs() > 0.05))
         .count();
-    assert!(
-        differs > a.frames[0].empty.len() / 4,
-        "{differs} pixels differ"
-    );
+    assert!(differs > ea.len() / 4, "{differs} pixels differ");
 }

@@ -6,6 +6,7 @@
 mod backends;
 mod brdf;
 mod data;
+mod disk;
 mod environment;
 mod extremes;
 mod human;

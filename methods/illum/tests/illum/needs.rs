@@ -25,7 +25,7 @@ fn the_shadow_decoder_is_built_only_where_the_persons_shadow_falls_on_the_scene(
     let device = Device::flex();
     let lit = crate::trainer::tiny();
     let capture = lit.data.build(&device).expect("the tiny capture");
-    let shadow = CastShadow::measure(&capture);
+    let shadow = CastShadow::measure(&capture).expect("the synthetic capture's truth");
     assert!(shadow.needs_decoder(), "under the point light: {shadow:?}");
     let choice = shadow_decoder(None, &capture);
     assert!(choice.enabled && choice.forced_by.is_none(), "{choice:?}");
@@ -33,7 +33,7 @@ fn the_shadow_decoder_is_built_only_where_the_persons_shadow_falls_on_the_scene(
     let mut diffuse = crate::trainer::tiny();
     diffuse.data.light = CaptureLight::Diffuse;
     let capture = diffuse.data.build(&device).expect("the diffuse capture");
-    let shadow = CastShadow::measure(&capture);
+    let shadow = CastShadow::measure(&capture).expect("the synthetic capture's truth");
     assert!(
         shadow.frames_showing == 0 && shadow.mean_pixel_fraction < 1e-4,
         "under diffuse light: {shadow:?}"

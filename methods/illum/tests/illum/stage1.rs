@@ -19,7 +19,7 @@ use splatzoo_rasterizer::{ColorMode, RasterSettings};
 use splatzoo_train::loss::scalar;
 
 fn posed_at(capture: &IllumCapture, tensors: &BodyTensors, frame: usize, device: &Device) -> Posed {
-    let motion = &capture.scene.people[0].motion;
+    let motion = capture.truth.as_ref().unwrap().motion();
     let f32s = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<_>>();
     let p = motion.pose(frame);
     let betas = motion.frame_betas(frame);
