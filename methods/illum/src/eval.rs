@@ -19,7 +19,8 @@
 //! - **F_vis** on the held-out frames' poses: accuracy against 512 fresh ray-cast labels per
 //!   frame, beside the majority rate (what a constant guess scores).
 //! - **Probes**: the relative RMS error of the gain-corrected learned probe SH against the
-//!   analytic SH of the training light.
+//!   analytic SH of the training light, over the whole grid and over the probes shading can
+//!   read (the corners of the cells the training poses' bodies occupy).
 //!
 //! Albedo, relit, shadow-region, novel-pose and probe scores need the synthetic capture's truth
 //! ([`TruthScores`]); a capture on disk gets the image, human-crop and F_vis scores alone.
@@ -76,6 +77,11 @@ pub struct TruthScores {
     pub shadow_error_without_ao: Option<f64>,
     pub novel_pose_psnr: f64,
     pub probe_relative_error: Option<f64>,
+    /// The same over the probes shading can read (the corners of the cells a training pose's
+    /// body occupies), each with its own gain, and how many they are: the rest of the grid
+    /// gets no gradient but what the smoothness term (Eq. 13) carries.
+    pub probe_relative_error_seen: Option<f64>,
+    pub probes_seen: Option<usize>,
 }
 
 /// `s` on the autodiff device without gradient tracking (renders for scores and exports
@@ -204,14 +210,32 @@ impl IllumTrainer {
     /// The learned probes' per-channel gain against the analytic SH of the training light
     /// (`None` where the capture does not know its light).
     pub fn probe_gain(&self) -> Option<[f64; 3]> {
-        Some(self.probe_gain_against(self.capture.truth.as_ref()?))
+        Some(self.probe_gain_against(self.capture.truth.as_ref()?, None))
     }
 
-    fn probe_gain_against(&self, truth: &CaptureTruth) -> [f64; 3] {
+    /// The probes shading can read: the 8 corners of every cell holding a vertex of a
+    /// training frame's posed body.
+    fn seen_probes(&self) -> Vec<bool> {
+        let grid = *self.volume.grid();
+        let mut seen = vec![false; grid.count()];
+        for &k in &self.train {
+            let posed = self.frame_pose(self.capture.frames[k].frame, false).posed;
+            let vertices = posed.vertices.reshape([self.mesh.vertex_count(), 3]);
+            let (corners, _) = grid.corner_weights(vertices);
+            for index in host_f32(&corners.float()) {
+                seen[index as usize] = true;
+            }
+        }
+        seen
+    }
+
+    /// The per-channel gain over the probes `among` keeps (all where `None`).
+    fn probe_gain_against(&self, truth: &CaptureTruth, among: Option<&[bool]>) -> [f64; 3] {
         let grid = *self.volume.grid();
         let sh = host_f32(&self.volume.sh.val());
         let k = sh.len() / (3 * grid.count());
         let pairs: Vec<([f64; 3], [f64; 3])> = (0..grid.count())
+            .filter(|&p| among.is_none_or(|keep| keep[p]))
             .flat_map(|p| {
                 let truth = truth.probe_truth(grid.position(p));
                 let sh = &sh;
@@ -224,13 +248,14 @@ impl IllumTrainer {
         channel_gains(&pairs)
     }
 
-    /// Relative RMS error of `gain × truth` against the learned probes.
-    fn probe_error(&self, truth: &CaptureTruth, gain: [f64; 3]) -> f64 {
+    /// Relative RMS error of `gain × truth` against the learned probes `among` keeps (all
+    /// where `None`).
+    fn probe_error(&self, truth: &CaptureTruth, gain: [f64; 3], among: Option<&[bool]>) -> f64 {
         let grid = *self.volume.grid();
         let sh = host_f32(&self.volume.sh.val());
         let k = sh.len() / (3 * grid.count());
         let (mut err, mut norm) = (0.0, 0.0);
-        for p in 0..grid.count() {
+        for p in (0..grid.count()).filter(|&p| among.is_none_or(|keep| keep[p])) {
             let truth = truth.probe_truth(grid.position(p));
             for j in 0..k {
                 for c in 0..3 {
@@ -404,11 +429,16 @@ impl IllumTrainer {
                 / (3 * albedo_pairs.len()) as f64;
             truth_scores.albedo_psnr = Some(-10.0 * mse.max(1e-20).log10());
         }
-        let gain = self.probe_gain_against(truth);
+        let gain = self.probe_gain_against(truth, None);
         self.relit_scores(nets, truth, gain, &mut truth_scores)?;
         self.novel_pose_scores(nets, truth, &mut truth_scores)?;
         if pbr {
-            truth_scores.probe_relative_error = Some(self.probe_error(truth, gain));
+            truth_scores.probe_relative_error = Some(self.probe_error(truth, gain, None));
+            let seen = self.seen_probes();
+            let seen_gain = self.probe_gain_against(truth, Some(&seen));
+            truth_scores.probe_relative_error_seen =
+                Some(self.probe_error(truth, seen_gain, Some(&seen)));
+            truth_scores.probes_seen = Some(seen.iter().filter(|&&s| s).count());
         }
         scores.truth = Some(truth_scores);
         Ok(scores)

@@ -136,6 +136,13 @@ fn crosses_the_hand_over_and_resumes_exactly() {
     assert_eq!(truth.relit.len(), 2, "{:?}", truth.relit);
     assert!(truth.albedo_psnr.is_some_and(f64::is_finite));
     assert!(truth.probe_relative_error.is_some_and(f64::is_finite));
+    assert!(truth.probe_relative_error_seen.is_some_and(f64::is_finite));
+    let probes = whole.trainer.volume.grid().count();
+    let seen = truth.probes_seen.expect("counted with the error");
+    assert!(
+        seen >= 8 && seen <= probes,
+        "{seen} of {probes} probes seen"
+    );
     assert!(truth.shadow_error_without_ao.is_some());
 }
 
