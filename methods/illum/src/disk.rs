@@ -40,6 +40,7 @@ use splatzoo_train::avatar::capture::load;
 use splatzoo_train::avatar::data::AvatarDataConfig;
 use splatzoo_train::host_f32;
 use splatzoo_train::views::init_points::random_points;
+use splatzoo_train::views::people::scale_camera_world;
 use splatzoo_train::views::{ColourSum, Frame};
 use std::path::Path;
 
@@ -206,10 +207,7 @@ pub fn write_as_neuman(capture: &IllumCapture, root: &Path, scale: f64) -> Resul
         .frames
         .iter()
         .map(|frame| {
-            let mut camera = frame.camera;
-            for row in &mut camera.world_to_camera {
-                row[3] *= s;
-            }
+            let camera = scale_camera_world(&frame.camera, scale);
             let t = frame.frame;
             NeumanFrame {
                 camera,

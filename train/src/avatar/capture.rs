@@ -10,14 +10,14 @@
 //! in ([`crate::views::people`]). Only a synthetic export has a true motion to score the
 //! refined track against (its true track, named without the prior's `_prior`).
 
-use super::data::{AvatarCapture, AvatarDataConfig, AvatarView};
+use super::data::{AvatarCapture, AvatarDataConfig, AvatarView, view_depth};
 use crate::error::TrainError;
-use crate::views::dataset::{Loaded, file_image, first_pass, load_capture, training_depth};
+use crate::views::dataset::{Loaded, file_image, first_pass, load_capture};
 use crate::views::init_points::back_project;
 use crate::views::people::{person_sequence, scale_camera_world};
 use crate::views::{ImageSource, ImageStore, InitPoints, MaskRole};
 use burn::tensor::{Device, Tensor};
-use splatzoo_datasets::formats::{Dataset, Format, ViewRecord};
+use splatzoo_datasets::formats::{Dataset, Format};
 use splatzoo_models::body::{BodyKind, BodyModel};
 use std::collections::BTreeSet;
 
@@ -162,7 +162,7 @@ pub fn load(
             record: Some(record.clone()),
         });
         if !held[f] && trains(&record.camera_name) && record.depth.is_some() {
-            with_depth.push((train.len() - 1, record));
+            with_depth.push(train.len() - 1);
         }
     }
     if train.is_empty() {
@@ -190,18 +190,11 @@ pub fn load(
     } else {
         let mut points = InitPoints::default();
         // Every fourth depth map, every 8th pixel, the person left out.
-        for &(k, record) in with_depth.iter().step_by(4) {
+        for &k in with_depth.iter().step_by(4) {
             let view = &train[k];
             let frame = store.frame(view.key)?;
             let pixels = (&frame.image, frame.person.as_ref());
-            depth_outside_person(
-                record,
-                view,
-                pixels,
-                downscale,
-                person.world_scale,
-                &mut points,
-            )?;
+            depth_outside_person(view, pixels, downscale, person.world_scale, &mut points)?;
         }
         let source = (!points.is_empty()).then_some("the capture's depth maps outside the person");
         (points, source)
@@ -239,29 +232,22 @@ pub fn load(
 /// Back-projects a training view's depth map (every 8th pixel, the person's pixels left out)
 /// into `points`, in the world scaled by `world_scale`.
 fn depth_outside_person(
-    record: &ViewRecord,
     view: &AvatarView,
     (image, person): (&Tensor<3>, Option<&Tensor<2>>),
     downscale: u32,
     world_scale: f64,
     points: &mut InitPoints,
 ) -> Result<(), TrainError> {
-    let Some(full) = training_depth(record, downscale)? else {
+    let Some(mut depth) = view_depth(view, downscale, world_scale)? else {
         return Ok(());
     };
-    let person = person.map(crate::host_f32);
-    let depth: Vec<f32> = full
-        .iter()
-        .enumerate()
-        .map(|(i, &d)| {
-            let on_person = person.as_ref().is_some_and(|p| p[i] > 0.5);
-            if on_person {
-                f32::NAN
-            } else {
-                d * world_scale as f32
+    if let Some(person) = person.map(crate::host_f32) {
+        for (d, p) in depth.iter_mut().zip(person) {
+            if p > 0.5 {
+                *d = f32::NAN;
             }
-        })
-        .collect();
+        }
+    }
     back_project(&view.camera, &depth, &crate::host_f32(image), 8, points);
     Ok(())
 }

@@ -158,13 +158,23 @@ impl AvatarCapture {
     /// A view's depth map at its training resolution, row-major, in the scaled world's unit
     /// (non-finite where unknown); `None` where the capture gives none.
     pub fn depth(&self, view: &AvatarView) -> Result<Option<Vec<f32>>, TrainError> {
-        let Some(record) = &view.record else {
-            return Ok(None);
-        };
-        let scale = self.world_scale as f32;
-        Ok(training_depth(record, self.downscale)?
-            .map(|depth| depth.into_iter().map(|d| d * scale).collect()))
+        view_depth(view, self.downscale, self.world_scale)
     }
+}
+
+/// `view`'s depth map at `1/downscale` of its capture's size, in the world scaled by
+/// `world_scale`; `None` where it has none.
+pub(crate) fn view_depth(
+    view: &AvatarView,
+    downscale: u32,
+    world_scale: f64,
+) -> Result<Option<Vec<f32>>, TrainError> {
+    let Some(record) = &view.record else {
+        return Ok(None);
+    };
+    let scale = world_scale as f32;
+    Ok(training_depth(record, downscale)?
+        .map(|depth| depth.into_iter().map(|d| d * scale).collect()))
 }
 
 /// Back-projects every 8th pixel of a rendered view's depth outside the person (an RGB-D
