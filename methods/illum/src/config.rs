@@ -180,9 +180,10 @@ pub struct LightSchedule {
     pub max_per_axis: usize,
     pub degree: u32,
     pub latent_dim: usize,
-    /// Probe SH DC (R3DG `light_lr`, scaled to the schedule; the higher bands take a tenth)
-    /// and latents.
+    /// Probe SH DC (R3DG `light_lr`, scaled to the schedule) and latents.
     pub sh_lr: f64,
+    /// The higher SH bands' rate as a fraction of `sh_lr` (R3DG's `light_rest_lr` is a tenth).
+    pub sh_rest_ratio: f64,
     pub latent_lr: f64,
     /// The shadow box's padding around the posed human, in body heights.
     pub shadow_pad: f64,
@@ -202,6 +203,7 @@ impl Default for LightSchedule {
             // R3DG's 1e-3 over its 30k steps; ×10 for this CPU schedule of ~1000 stage-2
             // steps, in which Adam moves a coefficient by at most about lr per step.
             sh_lr: 1e-2,
+            sh_rest_ratio: 0.1,
             latent_lr: 1e-3,
             shadow_pad: 0.5,
             decoder_lr: 1e-3,
@@ -430,7 +432,7 @@ impl MethodConfig for IllumConfig {
                     .to_owned(),
             );
         }
-        for (field, weight) in [
+        for (field, value) in [
             ("weights.scene", self.weights.scene),
             ("weights.human", self.weights.human),
             ("weights.depth", self.weights.depth),
@@ -438,9 +440,10 @@ impl MethodConfig for IllumConfig {
             ("weights.probe", self.weights.probe),
             ("weights.shadows", self.weights.shadows),
             ("weights.scale", self.weights.scale),
+            ("light.sh_rest_ratio", self.light.sh_rest_ratio),
         ] {
-            if !(weight >= 0.0 && weight.is_finite()) {
-                return bad(field, format!("must be finite and ≥ 0, got {weight}"));
+            if !(value >= 0.0 && value.is_finite()) {
+                return bad(field, format!("must be finite and ≥ 0, got {value}"));
             }
         }
         self.data

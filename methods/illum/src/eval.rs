@@ -82,6 +82,13 @@ pub struct TruthScores {
     /// gets no gradient but what the smoothness term (Eq. 13) carries.
     pub probe_relative_error_seen: Option<f64>,
     pub probes_seen: Option<usize>,
+    /// Per SH band over the same probes: the learned and the gain-scaled analytic RMS and
+    /// their relative error. A Lambertian surface reads band l through the cosine lobe's
+    /// `A_l / π` (1, 2/3, 1/4), so a band can be far off while shading barely sees it.
+    pub probe_bands_seen: Option<Vec<crate::probe_scores::ProbeBand>>,
+    /// The seen probes' relative error with each band weighted by `A_l / π`: the error in the
+    /// irradiance a Lambertian surface receives.
+    pub probe_irradiance_error_seen: Option<f64>,
 }
 
 /// `s` on the autodiff device without gradient tracking (renders for scores and exports
@@ -113,7 +120,7 @@ pub fn person_box(frame: &IllumFrame) -> Option<(std::ops::Range<usize>, std::op
 }
 
 /// Per-channel least-squares gains `g` minimising `Σ (g_c x − y)²` over pairs.
-fn channel_gains(pairs: &[([f64; 3], [f64; 3])]) -> [f64; 3] {
+pub(crate) fn channel_gains(pairs: &[([f64; 3], [f64; 3])]) -> [f64; 3] {
     [0, 1, 2].map(|c| {
         let (xy, xx) = pairs.iter().fold((0.0, 0.0), |(xy, xx), (x, y)| {
             (xy + x[c] * y[c], xx + x[c] * x[c])
@@ -205,67 +212,6 @@ impl IllumTrainer {
             &settings,
             self.capture.background,
         )
-    }
-
-    /// The learned probes' per-channel gain against the analytic SH of the training light
-    /// (`None` where the capture does not know its light).
-    pub fn probe_gain(&self) -> Option<[f64; 3]> {
-        Some(self.probe_gain_against(self.capture.truth.as_ref()?, None))
-    }
-
-    /// The probes shading can read: the 8 corners of every cell holding a vertex of a
-    /// training frame's posed body.
-    fn seen_probes(&self) -> Vec<bool> {
-        let grid = *self.volume.grid();
-        let mut seen = vec![false; grid.count()];
-        for &k in &self.train {
-            let posed = self.frame_pose(self.capture.frames[k].frame, false).posed;
-            let vertices = posed.vertices.reshape([self.mesh.vertex_count(), 3]);
-            let (corners, _) = grid.corner_weights(vertices);
-            for index in host_f32(&corners.float()) {
-                seen[index as usize] = true;
-            }
-        }
-        seen
-    }
-
-    /// The per-channel gain over the probes `among` keeps (all where `None`).
-    fn probe_gain_against(&self, truth: &CaptureTruth, among: Option<&[bool]>) -> [f64; 3] {
-        let grid = *self.volume.grid();
-        let sh = host_f32(&self.volume.sh.val());
-        let k = sh.len() / (3 * grid.count());
-        let pairs: Vec<([f64; 3], [f64; 3])> = (0..grid.count())
-            .filter(|&p| among.is_none_or(|keep| keep[p]))
-            .flat_map(|p| {
-                let truth = truth.probe_truth(grid.position(p));
-                let sh = &sh;
-                (0..k.min(9)).map(move |j| {
-                    let learned = [0, 1, 2].map(|c| f64::from(sh[(p * k + j) * 3 + c]));
-                    (truth[j], learned)
-                })
-            })
-            .collect();
-        channel_gains(&pairs)
-    }
-
-    /// Relative RMS error of `gain × truth` against the learned probes `among` keeps (all
-    /// where `None`).
-    fn probe_error(&self, truth: &CaptureTruth, gain: [f64; 3], among: Option<&[bool]>) -> f64 {
-        let grid = *self.volume.grid();
-        let sh = host_f32(&self.volume.sh.val());
-        let k = sh.len() / (3 * grid.count());
-        let (mut err, mut norm) = (0.0, 0.0);
-        for p in (0..grid.count()).filter(|&p| among.is_none_or(|keep| keep[p])) {
-            let truth = truth.probe_truth(grid.position(p));
-            for j in 0..k {
-                for c in 0..3 {
-                    let t = if j < 9 { gain[c] * truth[j][c] } else { 0.0 };
-                    err += (f64::from(sh[(p * k + j) * 3 + c]) - t).powi(2);
-                    norm += t * t;
-                }
-            }
-        }
-        (err / norm.max(1e-20)).sqrt()
     }
 
     /// A copy of the volume whose probes change by `gain ×` the analytic change from the
@@ -433,12 +379,7 @@ impl IllumTrainer {
         self.relit_scores(nets, truth, gain, &mut truth_scores)?;
         self.novel_pose_scores(nets, truth, &mut truth_scores)?;
         if pbr {
-            truth_scores.probe_relative_error = Some(self.probe_error(truth, gain, None));
-            let seen = self.seen_probes();
-            let seen_gain = self.probe_gain_against(truth, Some(&seen));
-            truth_scores.probe_relative_error_seen =
-                Some(self.probe_error(truth, seen_gain, Some(&seen)));
-            truth_scores.probes_seen = Some(seen.iter().filter(|&&s| s).count());
+            self.probe_scores(truth, gain, &mut truth_scores);
         }
         scores.truth = Some(truth_scores);
         Ok(scores)

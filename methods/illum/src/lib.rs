@@ -44,6 +44,7 @@ pub mod method;
 pub mod needs;
 pub mod onnx;
 pub mod pbr;
+pub mod probe_scores;
 pub mod render;
 pub mod sampling;
 pub mod shadow;

@@ -468,16 +468,17 @@ impl IllumTrainer {
         };
     }
 
-    /// One Adam step of the light volume's SH (DC at `light.sh_lr`, the higher bands at a
-    /// tenth of it: R3DG's `light_lr` and `light_rest_lr`) and latents.
+    /// One Adam step of the light volume's SH (DC at `light.sh_lr`, the higher bands at
+    /// `light.sh_rest_ratio` of it: R3DG's `light_lr` and `light_rest_lr`) and latents.
     pub fn step_volume(&mut self, grads: &burn::tensor::Gradients) {
         let config = AdamConfig::default();
         if let Some(grad) = self.volume.sh.val().grad(grads) {
             let value = self.volume.sh.val().inner();
             let [p, k, c] = value.dims();
             let unit = self.sh_adam.step(value.clone(), grad, 1.0, &config);
-            let mut rates = vec![(self.config.light.sh_lr * 0.1) as f32; k];
-            rates[0] = self.config.light.sh_lr as f32;
+            let light = &self.config.light;
+            let mut rates = vec![(light.sh_lr * light.sh_rest_ratio) as f32; k];
+            rates[0] = light.sh_lr as f32;
             let rates = Tensor::<3>::from_data(TensorData::new(rates, [1, k, 1]), &value.device());
             let updated = value.clone() - (value - unit) * rates.expand([p, k, c]);
             self.volume.sh = burn::module::Param::from_tensor(updated.autodiff().require_grad());

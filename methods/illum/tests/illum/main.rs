@@ -14,6 +14,7 @@ mod light_volume;
 mod lighting;
 mod needs;
 mod onnx;
+mod probe_scores;
 mod render;
 mod sampling;
 mod shading;

@@ -1,0 +1,161 @@
+//! The learned light volume against the analytic light the synthetic renderer used: one
+//! per-channel gain (the albedo–light scale ambiguity), the relative error over the whole
+//! grid and over the probes shading can read, and that error per SH band and as the
+//! irradiance a Lambertian surface receives. Every score here needs the capture's truth.
+
+use crate::data::CaptureTruth;
+use crate::eval::{TruthScores, channel_gains};
+use crate::trainer::IllumTrainer;
+use serde::{Deserialize, Serialize};
+use splatzoo_train::host_f32;
+
+/// One SH band of the learned probes against the gain-scaled analytic light.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ProbeBand {
+    pub band: usize,
+    pub learned_rms: f64,
+    pub truth_rms: f64,
+    pub relative_error: f64,
+}
+
+/// The cosine lobe's SH convolution weights `A_l / π` for bands 0..=3 (Ramamoorthi and
+/// Hanrahan 2001; band 3 is 0).
+const LAMBERT_BAND_WEIGHT: [f64; 4] = [1.0, 2.0 / 3.0, 0.25, 0.0];
+
+impl IllumTrainer {
+    /// The learned probes' per-channel gain against the analytic SH of the training light
+    /// (`None` where the capture does not know its light).
+    pub fn probe_gain(&self) -> Option<[f64; 3]> {
+        Some(self.probe_gain_against(self.capture.truth.as_ref()?, None))
+    }
+
+    /// The probes shading can read: the 8 corners of every cell holding a vertex of a
+    /// training frame's posed body.
+    pub fn seen_probes(&self) -> Vec<bool> {
+        let grid = *self.volume.grid();
+        let mut seen = vec![false; grid.count()];
+        for &k in &self.train {
+            let posed = self.frame_pose(self.capture.frames[k].frame, false).posed;
+            let vertices = posed.vertices.reshape([self.mesh.vertex_count(), 3]);
+            let (corners, _) = grid.corner_weights(vertices);
+            for index in host_f32(&corners.float()) {
+                seen[index as usize] = true;
+            }
+        }
+        seen
+    }
+
+    /// The per-channel gain over the probes `among` keeps (all where `None`).
+    pub(crate) fn probe_gain_against(
+        &self,
+        truth: &CaptureTruth,
+        among: Option<&[bool]>,
+    ) -> [f64; 3] {
+        let grid = *self.volume.grid();
+        let sh = host_f32(&self.volume.sh.val());
+        let k = sh.len() / (3 * grid.count());
+        let pairs: Vec<([f64; 3], [f64; 3])> = (0..grid.count())
+            .filter(|&p| among.is_none_or(|keep| keep[p]))
+            .flat_map(|p| {
+                let truth = truth.probe_truth(grid.position(p));
+                let sh = &sh;
+                (0..k.min(9)).map(move |j| {
+                    let learned = [0, 1, 2].map(|c| f64::from(sh[(p * k + j) * 3 + c]));
+                    (truth[j], learned)
+                })
+            })
+            .collect();
+        channel_gains(&pairs)
+    }
+
+    /// Relative RMS error of `gain × truth` against the learned probes `among` keeps (all
+    /// where `None`).
+    fn probe_error(&self, truth: &CaptureTruth, gain: [f64; 3], among: Option<&[bool]>) -> f64 {
+        let grid = *self.volume.grid();
+        let sh = host_f32(&self.volume.sh.val());
+        let k = sh.len() / (3 * grid.count());
+        let (mut err, mut norm) = (0.0, 0.0);
+        for p in (0..grid.count()).filter(|&p| among.is_none_or(|keep| keep[p])) {
+            let truth = truth.probe_truth(grid.position(p));
+            for j in 0..k {
+                for c in 0..3 {
+                    let t = if j < 9 { gain[c] * truth[j][c] } else { 0.0 };
+                    err += (f64::from(sh[(p * k + j) * 3 + c]) - t).powi(2);
+                    norm += t * t;
+                }
+            }
+        }
+        (err / norm.max(1e-20)).sqrt()
+    }
+
+    /// Per-band sums over the probes `among` keeps of `learned²`, `(gain × truth)²` and their
+    /// squared difference, for the bands the analytic light has (0..=2).
+    fn probe_band_sums(
+        &self,
+        truth: &CaptureTruth,
+        gain: [f64; 3],
+        among: &[bool],
+    ) -> Vec<[f64; 3]> {
+        let grid = *self.volume.grid();
+        let sh = host_f32(&self.volume.sh.val());
+        let k = sh.len() / (3 * grid.count());
+        let bands = (k as f64).sqrt() as usize;
+        let mut sums = vec![[0.0; 3]; bands.min(3)];
+        for p in (0..grid.count()).filter(|&p| among[p]) {
+            let truth = truth.probe_truth(grid.position(p));
+            for j in 0..k.min(9) {
+                let band = (j as f64).sqrt() as usize;
+                for c in 0..3 {
+                    let (learned, t) = (f64::from(sh[(p * k + j) * 3 + c]), gain[c] * truth[j][c]);
+                    sums[band][0] += learned * learned;
+                    sums[band][1] += t * t;
+                    sums[band][2] += (learned - t).powi(2);
+                }
+            }
+        }
+        sums
+    }
+
+    /// [`TruthScores::probe_bands_seen`] and [`TruthScores::probe_irradiance_error_seen`].
+    pub fn probe_band_scores(
+        &self,
+        truth: &CaptureTruth,
+        gain: [f64; 3],
+        among: &[bool],
+    ) -> (Vec<ProbeBand>, f64) {
+        let sums = self.probe_band_sums(truth, gain, among);
+        let count = among.iter().filter(|&&s| s).count().max(1) as f64;
+        let bands = sums
+            .iter()
+            .enumerate()
+            .map(|(band, [learned, t, diff])| {
+                let per = 3.0 * (2 * band + 1) as f64 * count;
+                ProbeBand {
+                    band,
+                    learned_rms: (learned / per).sqrt(),
+                    truth_rms: (t / per).sqrt(),
+                    relative_error: (diff / t.max(1e-20)).sqrt(),
+                }
+            })
+            .collect();
+        let weighted = |i: usize| -> f64 {
+            sums.iter()
+                .zip(LAMBERT_BAND_WEIGHT)
+                .map(|(s, a)| a * a * s[i])
+                .sum()
+        };
+        (bands, (weighted(2) / weighted(1).max(1e-20)).sqrt())
+    }
+
+    /// The probe scores of [`TruthScores`] against the whole grid's `gain`.
+    pub fn probe_scores(&self, truth: &CaptureTruth, gain: [f64; 3], scores: &mut TruthScores) {
+        scores.probe_relative_error = Some(self.probe_error(truth, gain, None));
+        let seen = self.seen_probes();
+        let seen_gain = self.probe_gain_against(truth, Some(&seen));
+        scores.probe_relative_error_seen = Some(self.probe_error(truth, seen_gain, Some(&seen)));
+        scores.probes_seen = Some(seen.iter().filter(|&&s| s).count());
+        let (bands, irradiance) = self.probe_band_scores(truth, seen_gain, &seen);
+        scores.probe_bands_seen = Some(bands);
+        scores.probe_irradiance_error_seen = Some(irradiance);
+    }
+}

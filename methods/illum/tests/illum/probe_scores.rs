@@ -1,0 +1,86 @@
+//! The probe scores against the analytic light: zero on the light itself at any gain, and a
+//! missing band weighed by the cosine lobe in the irradiance error.
+
+use burn::module::Param;
+use burn::tensor::{Device, Tensor, TensorData};
+use splatzoo_illum::eval::TruthScores;
+use splatzoo_illum::method::Illum;
+use splatzoo_illum::probe_scores::ProbeBand;
+use splatzoo_illum::trainer::IllumTrainer;
+use splatzoo_train::harness::Method;
+
+/// Sets every probe to `gain ×` the analytic SH of the training light, bands from `from_band`
+/// on zeroed.
+fn set_probes(trainer: &mut IllumTrainer, gain: f64, from_band: usize) {
+    let truth = trainer
+        .capture
+        .truth
+        .clone()
+        .expect("the synthetic capture's truth");
+    let grid = *trainer.volume.grid();
+    let [p, k, _] = trainer.volume.sh.val().dims();
+    assert_eq!(k, 9, "the default probes are SH degree 2");
+    let mut values = vec![0.0f32; p * k * 3];
+    for i in 0..p {
+        let sh = truth.probe_truth(grid.position(i));
+        for j in 0..from_band * from_band {
+            for c in 0..3 {
+                values[(i * k + j) * 3 + c] = (gain * sh[j][c]) as f32;
+            }
+        }
+    }
+    let device = trainer.volume.sh.val().device();
+    trainer.volume.sh = Param::from_tensor(Tensor::from_data(
+        TensorData::new(values, [p, k, 3]),
+        &device,
+    ));
+}
+
+#[test]
+fn vanish_on_the_scaled_light_and_weigh_a_missing_band_by_the_cosine_lobe() {
+    let device = Device::flex();
+    let mut method = Illum::new(super::trainer::tiny(), &device).unwrap();
+    let trainer = &mut method.trainer;
+    let truth = trainer.capture.truth.clone().unwrap();
+
+    set_probes(trainer, 2.5, 3);
+    let gain = trainer.probe_gain().unwrap();
+    for g in gain {
+        assert!((g - 2.5).abs() < 1e-5, "gain {gain:?}");
+    }
+    let mut scores = TruthScores::default();
+    trainer.probe_scores(&truth, gain, &mut scores);
+    let bands = scores.probe_bands_seen.clone().unwrap();
+    assert_eq!(bands.len(), 3, "{bands:?}");
+    for (name, error) in [
+        ("whole grid", scores.probe_relative_error.unwrap()),
+        ("seen", scores.probe_relative_error_seen.unwrap()),
+        ("irradiance", scores.probe_irradiance_error_seen.unwrap()),
+    ]
+    .into_iter()
+    .chain(bands.iter().map(|b| ("band", b.relative_error)))
+    {
+        assert!(error < 1e-5, "{name}: {error} in {scores:?}");
+    }
+    for band in &bands {
+        assert!(band.truth_rms > 0.0, "the light has no band {band:?}");
+        let ratio = band.learned_rms / band.truth_rms;
+        assert!((ratio - 1.0).abs() < 1e-5, "{band:?}");
+    }
+
+    // Band 2 gone: its error is whole, the others stay exact, and the irradiance error is
+    // band 2's share after the lobe's 1, 2/3, 1/4.
+    set_probes(trainer, 2.5, 2);
+    let seen = trainer.seen_probes();
+    let (bands, irradiance) = trainer.probe_band_scores(&truth, [2.5; 3], &seen);
+    assert!(bands[0].relative_error < 1e-5 && bands[1].relative_error < 1e-5);
+    assert!((bands[2].relative_error - 1.0).abs() < 1e-9, "{bands:?}");
+    assert_eq!(bands[2].learned_rms, 0.0);
+    let energy = |b: &ProbeBand| b.truth_rms.powi(2) * (2 * b.band + 1) as f64;
+    let expected = 0.25 * energy(&bands[2]).sqrt()
+        / (energy(&bands[0]) + energy(&bands[1]) * 4.0 / 9.0 + energy(&bands[2]) / 16.0).sqrt();
+    assert!(
+        (irradiance - expected).abs() < 1e-6 * expected,
+        "{irradiance} against {expected}"
+    );
+}
