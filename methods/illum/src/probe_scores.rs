@@ -16,6 +16,9 @@ pub struct ProbeBand {
     pub learned_rms: f64,
     pub truth_rms: f64,
     pub relative_error: f64,
+    /// `⟨learned, truth⟩ / (‖learned‖ ‖truth‖)` over the band's coefficients: free of the
+    /// gain, 1 where the learned band points as the light's does, 0 where it is unrelated.
+    pub cosine: f64,
 }
 
 /// The cosine lobe's SH convolution weights `A_l / π` for bands 0..=3 (Ramamoorthi and
@@ -88,19 +91,20 @@ impl IllumTrainer {
         (err / norm.max(1e-20)).sqrt()
     }
 
-    /// Per-band sums over the probes `among` keeps of `learned²`, `(gain × truth)²` and their
-    /// squared difference, for the bands the analytic light has (0..=2).
+    /// Per-band sums over the probes `among` keeps of `learned²`, `(gain × truth)²`, their
+    /// squared difference and `learned · gain × truth`, for the bands the analytic light has
+    /// (0..=2).
     fn probe_band_sums(
         &self,
         truth: &CaptureTruth,
         gain: [f64; 3],
         among: &[bool],
-    ) -> Vec<[f64; 3]> {
+    ) -> Vec<[f64; 4]> {
         let grid = *self.volume.grid();
         let sh = host_f32(&self.volume.sh.val());
         let k = sh.len() / (3 * grid.count());
         let bands = (k as f64).sqrt() as usize;
-        let mut sums = vec![[0.0; 3]; bands.min(3)];
+        let mut sums = vec![[0.0; 4]; bands.min(3)];
         for p in (0..grid.count()).filter(|&p| among[p]) {
             let truth = truth.probe_truth(grid.position(p));
             for j in 0..k.min(9) {
@@ -110,6 +114,7 @@ impl IllumTrainer {
                     sums[band][0] += learned * learned;
                     sums[band][1] += t * t;
                     sums[band][2] += (learned - t).powi(2);
+                    sums[band][3] += learned * t;
                 }
             }
         }
@@ -128,13 +133,14 @@ impl IllumTrainer {
         let bands = sums
             .iter()
             .enumerate()
-            .map(|(band, [learned, t, diff])| {
+            .map(|(band, [learned, t, diff, dot])| {
                 let per = 3.0 * (2 * band + 1) as f64 * count;
                 ProbeBand {
                     band,
                     learned_rms: (learned / per).sqrt(),
                     truth_rms: (t / per).sqrt(),
                     relative_error: (diff / t.max(1e-20)).sqrt(),
+                    cosine: dot / (learned * t).sqrt().max(1e-20),
                 }
             })
             .collect();

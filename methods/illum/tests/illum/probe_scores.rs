@@ -1,5 +1,6 @@
-//! The probe scores against the analytic light: zero on the light itself at any gain, and a
-//! missing band weighed by the cosine lobe in the irradiance error.
+//! The probe scores against the analytic light: zero on the light itself at any gain, a
+//! missing band weighed by the cosine lobe in the irradiance error, and each band's cosine
+//! telling a band that points the wrong way from one that is missing.
 
 use burn::module::Param;
 use burn::tensor::{Device, Tensor, TensorData};
@@ -9,9 +10,9 @@ use splatzoo_illum::probe_scores::ProbeBand;
 use splatzoo_illum::trainer::IllumTrainer;
 use splatzoo_train::harness::Method;
 
-/// Sets every probe to `gain ×` the analytic SH of the training light, bands from `from_band`
-/// on zeroed.
-fn set_probes(trainer: &mut IllumTrainer, gain: f64, from_band: usize) {
+/// Sets every probe to `gain ×` the analytic SH of the training light, band `l` further scaled
+/// by `band_scale[l]`.
+fn set_probes(trainer: &mut IllumTrainer, gain: f64, band_scale: [f64; 3]) {
     let truth = trainer
         .capture
         .truth
@@ -23,9 +24,10 @@ fn set_probes(trainer: &mut IllumTrainer, gain: f64, from_band: usize) {
     let mut values = vec![0.0f32; p * k * 3];
     for i in 0..p {
         let sh = truth.probe_truth(grid.position(i));
-        for j in 0..from_band * from_band {
+        for (j, coefficient) in sh.iter().enumerate() {
+            let band = (j as f64).sqrt() as usize;
             for c in 0..3 {
-                values[(i * k + j) * 3 + c] = (gain * sh[j][c]) as f32;
+                values[(i * k + j) * 3 + c] = (gain * band_scale[band] * coefficient[c]) as f32;
             }
         }
     }
@@ -43,7 +45,7 @@ fn vanish_on_the_scaled_light_and_weigh_a_missing_band_by_the_cosine_lobe() {
     let trainer = &mut method.trainer;
     let truth = trainer.capture.truth.clone().unwrap();
 
-    set_probes(trainer, 2.5, 3);
+    set_probes(trainer, 2.5, [1.0; 3]);
     let gain = trainer.probe_gain().unwrap();
     for g in gain {
         assert!((g - 2.5).abs() < 1e-5, "gain {gain:?}");
@@ -66,16 +68,18 @@ fn vanish_on_the_scaled_light_and_weigh_a_missing_band_by_the_cosine_lobe() {
         assert!(band.truth_rms > 0.0, "the light has no band {band:?}");
         let ratio = band.learned_rms / band.truth_rms;
         assert!((ratio - 1.0).abs() < 1e-5, "{band:?}");
+        assert!((band.cosine - 1.0).abs() < 1e-6, "{band:?}");
     }
 
     // Band 2 gone: its error is whole, the others stay exact, and the irradiance error is
     // band 2's share after the lobe's 1, 2/3, 1/4.
-    set_probes(trainer, 2.5, 2);
+    set_probes(trainer, 2.5, [1.0, 1.0, 0.0]);
     let seen = trainer.seen_probes();
     let (bands, irradiance) = trainer.probe_band_scores(&truth, [2.5; 3], &seen);
     assert!(bands[0].relative_error < 1e-5 && bands[1].relative_error < 1e-5);
     assert!((bands[2].relative_error - 1.0).abs() < 1e-9, "{bands:?}");
     assert_eq!(bands[2].learned_rms, 0.0);
+    assert_eq!(bands[2].cosine, 0.0);
     let energy = |b: &ProbeBand| b.truth_rms.powi(2) * (2 * b.band + 1) as f64;
     let expected = 0.25 * energy(&bands[2]).sqrt()
         / (energy(&bands[0]) + energy(&bands[1]) * 4.0 / 9.0 + energy(&bands[2]) / 16.0).sqrt();
@@ -83,4 +87,12 @@ fn vanish_on_the_scaled_light_and_weigh_a_missing_band_by_the_cosine_lobe() {
         (irradiance - expected).abs() < 1e-6 * expected,
         "{irradiance} against {expected}"
     );
+
+    // Band 1 turned the other way and three times too strong: its cosine is −1 whatever its
+    // size, band 2 keeps 1, and the error counts both the sign and the size.
+    set_probes(trainer, 2.5, [1.0, -3.0, 1.0]);
+    let (bands, _) = trainer.probe_band_scores(&truth, [2.5; 3], &seen);
+    assert!((bands[1].cosine + 1.0).abs() < 1e-6, "{bands:?}");
+    assert!((bands[2].cosine - 1.0).abs() < 1e-6, "{bands:?}");
+    assert!((bands[1].relative_error - 4.0).abs() < 1e-5, "{bands:?}");
 }
