@@ -83,8 +83,9 @@ pub struct TruthScores {
     pub probe_relative_error_seen: Option<f64>,
     pub probes_seen: Option<usize>,
     /// Per SH band over the same probes: the learned and the gain-scaled analytic RMS, their
-    /// relative error and their cosine (whether the band points as the light's). A Lambertian surface reads band l through the cosine lobe's
-    /// `A_l / π` (1, 2/3, 1/4), so a band can be far off while shading barely sees it.
+    /// relative error and their cosine (whether the band points as the light's). A Lambertian
+    /// surface reads band l through the cosine lobe's `A_l / π` (1, 2/3, 1/4), so a band can
+    /// be far off while shading barely sees it.
     pub probe_bands_seen: Option<Vec<crate::probe_scores::ProbeBand>>,
     /// The seen probes' relative error with each band weighted by `A_l / π`: the error in the
     /// irradiance a Lambertian surface receives.
