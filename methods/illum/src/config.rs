@@ -186,6 +186,12 @@ pub struct LightSchedule {
     pub sh_lr: f64,
     /// The higher SH bands' rate as a fraction of `sh_lr` (R3DG's `light_rest_lr` is a tenth).
     pub sh_rest_ratio: f64,
+    /// Our choice, off in the paper: one SH environment shared by every probe, learned at the
+    /// probes' rates, with the probes as residuals on it (`LightVolume::split_environment`).
+    pub shared_environment: bool,
+    /// The training step from which the probes' own coefficients learn; before it only the
+    /// shared environment (when on) moves: the global light fitted first.
+    pub probes_from_step: usize,
     pub latent_lr: f64,
     /// The shadow box's padding around the posed human, in body heights.
     pub shadow_pad: f64,
@@ -206,6 +212,8 @@ impl Default for LightSchedule {
             // steps, in which Adam moves a coefficient by at most about lr per step.
             sh_lr: 1e-2,
             sh_rest_ratio: 0.1,
+            shared_environment: false,
+            probes_from_step: 0,
             latent_lr: 1e-3,
             shadow_pad: 0.5,
             decoder_lr: 1e-3,

@@ -14,6 +14,13 @@
 //! Initialisation (spec §3): DC `= √(4π) = 1/Y₀₀` in every colour channel (uniform unit
 //! radiance), higher bands 0, latents `~ N(0, 0.01²)` from a seed.
 //!
+//! A probe's coefficients are `c_k = e + r_k`: a global SH environment `e` shared by every
+//! probe plus the probe's own `r_k`. By default `e = 0` and stays there, so `r_k` is the whole
+//! probe, as in the paper. [`LightVolume::split_environment`] moves the probes' mean into `e`
+//! (our choice, `light.shared_environment`): the trainer can then fit one environment for the
+//! whole scene, which every pixel's gradient reaches, with the probes as residuals on it. Eq.
+//! 13 sees only differences between probes, so it smooths the residuals and leaves `e` free.
+//!
 //! Each Burn-ops function has a scalar f64 reference beside it for the tests:
 //! [`interpolate_reference`] (a sum of tent functions over every probe, not a corner lookup) and
 //! [`probe_smoothness_reference`].
@@ -256,8 +263,11 @@ impl ProbeGrid {
 /// Eq. 6's probes: SH radiance `[P, K, 3]` and latents `[P, d_z]` on a [`ProbeGrid`].
 #[derive(Module, Debug)]
 pub struct LightVolume {
-    /// `[P, K, 3]` real-SH radiance coefficients per probe (no `+0.5`).
+    /// `[P, K, 3]` real-SH radiance coefficients per probe (no `+0.5`), on top of
+    /// [`Self::environment`].
     pub sh: Param<Tensor<3>>,
+    /// `[K, 3]` the SH environment every probe adds (zero unless split off).
+    pub environment: Param<Tensor<2>>,
     /// `[P, d_z]` latent lighting features (Eq. 8's `z`).
     pub latent: Param<Tensor<2>>,
     #[module(skip)]
@@ -300,6 +310,7 @@ impl LightVolume {
         let latent = normal_draws(seed, p * latent_dim, LATENT_INIT_STD);
         Ok(Self {
             sh: Param::from_tensor(Tensor::from_data(TensorData::new(sh, [p, k, 3]), device)),
+            environment: Param::from_tensor(Tensor::zeros([k, 3], device)),
             latent: Param::from_tensor(Tensor::from_data(
                 TensorData::new(latent, [p, latent_dim]),
                 device,
@@ -311,6 +322,45 @@ impl LightVolume {
     /// The probe grid.
     pub fn grid(&self) -> &ProbeGrid {
         &self.grid
+    }
+
+    /// Moves the mean of the probes' own coefficients into the shared environment: every
+    /// probe's total `e + r_k` is unchanged (to rounding); on a fresh volume `e` becomes the
+    /// uniform unit radiance and every `r_k` exactly 0 (the mean is taken in f64 on the host).
+    pub fn split_environment(mut self) -> Self {
+        let sh = self.sh.val();
+        let [p, k, c] = sh.dims();
+        let device = sh.device();
+        let own: Vec<f64> = sh
+            .into_data()
+            .convert::<f64>()
+            .try_into_vec::<f64>()
+            .expect("f64 coefficients");
+        let width = k * c;
+        let mean: Vec<f64> = (0..width)
+            .map(|j| (0..p).map(|i| own[i * width + j]).sum::<f64>() / p as f64)
+            .collect();
+        let residual: Vec<f32> = own
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (v - mean[i % width]) as f32)
+            .collect();
+        let shared: Vec<f32> = mean.iter().map(|&m| m as f32).collect();
+        let environment =
+            self.environment.val() + Tensor::from_data(TensorData::new(shared, [k, c]), &device);
+        self.sh = Param::from_tensor(Tensor::from_data(
+            TensorData::new(residual, [p, k, c]),
+            &device,
+        ));
+        self.environment = Param::from_tensor(environment.detach());
+        self
+    }
+
+    /// Every probe's whole coefficients `e + r_k`, `[P, K, 3]`.
+    pub fn coefficients(&self) -> Tensor<3> {
+        let sh = self.sh.val();
+        let [p, k, c] = sh.dims();
+        sh + self.environment.val().reshape([1, k, c]).expand([p, k, c])
     }
 
     /// The SH degree, from the coefficient count `K = (degree + 1)²`.
@@ -332,9 +382,15 @@ impl LightVolume {
         let sh = self.sh.val();
         let [p, k, c] = sh.dims();
         let (indices, weights) = self.grid.corner_weights(points);
-        let coefficients = blend(sh.reshape([p, k * c]), indices.clone(), weights.clone());
+        let own = blend(sh.reshape([p, k * c]), indices.clone(), weights.clone());
+        // The corner weights sum to 1, so the shared environment adds once.
+        let shared = self
+            .environment
+            .val()
+            .reshape([1, k * c])
+            .expand([n, k * c]);
         (
-            coefficients.reshape([n, k, c]),
+            (own + shared).reshape([n, k, c]),
             blend(self.latent.val(), indices, weights),
         )
     }
@@ -345,8 +401,9 @@ impl LightVolume {
         blend(self.latent.val(), indices, weights)
     }
 
-    /// Writes one SH environment `[K, 3]` into every probe (relighting, spec §5(a)). The
-    /// coefficients become a fresh parameter (its optimiser state restarts); latents stay.
+    /// Writes one SH environment `[K, 3]` into every probe (relighting, spec §5(a)): the
+    /// shared environment becomes `sh` and every probe's own part 0. Both become fresh
+    /// parameters (their optimiser state restarts); latents stay.
     pub fn set_environment(&mut self, sh: Tensor<2>) {
         let [p, k, c] = self.sh.val().dims();
         assert_eq!(
@@ -354,14 +411,15 @@ impl LightVolume {
             [k, c],
             "set_environment: the environment must be [{k}, {c}]"
         );
-        let every = sh.reshape([1, k, c]).repeat_dim(0, p).detach();
-        self.sh = Param::from_tensor(every);
+        self.sh = Param::from_tensor(Tensor::zeros([p, k, c], &sh.device()));
+        self.environment = Param::from_tensor(sh.detach());
     }
 
     /// Eq. 13 with the spec's reading: the mean over probes of
     /// `‖c_i − mean_{j ∈ faces(i)} c_j‖₁` over each probe's whole coefficient vector `[K·3]`
     /// (radiance is linear in it), the neighbours being the ≤ 6 grid face-neighbours (fewer at
-    /// the border). Latents are not smoothed. Zero on a constant field.
+    /// the border). Latents are not smoothed. Zero on a constant field. The shared environment
+    /// cancels in every difference, so only the probes' own parts are read.
     pub fn probe_smoothness(&self) -> Tensor<1> {
         let sh = self.sh.val();
         let [p, k, c] = sh.dims();

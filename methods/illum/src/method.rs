@@ -216,6 +216,8 @@ impl Method for Illum {
         t.body.in_plane = burn::module::Param::from_tensor(in_plane.require_grad());
         t.volume = c.module(t.volume.clone(), "volume")?.train();
         t.sh_adam = AdamState::load(c, "volume.sh", &t.volume.sh.val().inner())?;
+        t.environment_adam =
+            AdamState::load(c, "volume.environment", &t.volume.environment.val().inner())?;
         t.latent_adam = AdamState::load(c, "volume.latent", &t.volume.latent.val().inner())?;
         (t.decoder, t.decoder_adam) = load_network(c, "decoder", t.decoder.clone())?;
         (t.visibility, t.visibility_adam) = load_network(c, "visibility", t.visibility.clone())?;
@@ -345,6 +347,7 @@ impl Method for Illum {
         t.in_plane_adam.save(&mut c, "body.in_plane");
         c.put_module("volume", &t.volume);
         t.sh_adam.save(&mut c, "volume.sh");
+        t.environment_adam.save(&mut c, "volume.environment");
         t.latent_adam.save(&mut c, "volume.latent");
         put_network(&mut c, "decoder", &t.decoder, &t.decoder_adam);
         put_network(&mut c, "visibility", &t.visibility, &t.visibility_adam);

@@ -98,7 +98,7 @@ impl ProbeTable {
 impl IllumTrainer {
     fn probe_table(&self, truth: &CaptureTruth) -> ProbeTable {
         let grid = *self.volume.grid();
-        let learned = host_f32(&self.volume.sh.val());
+        let learned = host_f32(&self.volume.coefficients());
         ProbeTable {
             k: learned.len() / (3 * grid.count()),
             learned,

@@ -93,6 +93,7 @@ pub struct IllumTrainer {
     pub in_plane_adam: AdamState<2>,
     pub volume: LightVolume,
     pub sh_adam: AdamState<3>,
+    pub environment_adam: AdamState<2>,
     pub latent_adam: AdamState<2>,
     pub decoder: ShadowDecoder,
     pub decoder_adam: ModuleAdam,
@@ -242,6 +243,7 @@ impl IllumTrainer {
                 &autodiff,
             )?,
             sh_adam: AdamState::new(&Tensor::<3>::zeros([1, 1, 3], device)),
+            environment_adam: AdamState::new(&Tensor::<2>::zeros([1, 3], device)),
             latent_adam: AdamState::new(&Tensor::<2>::zeros([1, 1], device)),
             decoder,
             decoder_adam: ModuleAdam::new(NETWORK_ADAM),
@@ -272,7 +274,11 @@ impl IllumTrainer {
             trainer.config.seed ^ 0x111_0004,
             &autodiff,
         )?;
+        if trainer.config.light.shared_environment {
+            trainer.volume = trainer.volume.split_environment().train();
+        }
         trainer.sh_adam = AdamState::new(&trainer.volume.sh.val().inner());
+        trainer.environment_adam = AdamState::new(&trainer.volume.environment.val().inner());
         trainer.latent_adam = AdamState::new(&trainer.volume.latent.val().inner());
         if !trainer.config.ablation.two_stage {
             trainer.stage2 = Some(trainer.hand_over());
@@ -469,18 +475,35 @@ impl IllumTrainer {
     }
 
     /// One Adam step of the light volume's SH (DC at `light.sh_lr`, the higher bands at
-    /// `light.sh_rest_ratio` of it: R3DG's `light_lr` and `light_rest_lr`) and latents.
+    /// `light.sh_rest_ratio` of it: R3DG's `light_lr` and `light_rest_lr`) and latents: the
+    /// shared environment only when `light.shared_environment`, the probes' own coefficients
+    /// only from `light.probes_from_step`.
     pub fn step_volume(&mut self, grads: &burn::tensor::Gradients) {
         let config = AdamConfig::default();
-        if let Some(grad) = self.volume.sh.val().grad(grads) {
+        let light = &self.config.light;
+        let k = self.volume.sh.val().dims()[1];
+        let mut rates = vec![(light.sh_lr * light.sh_rest_ratio) as f32; k];
+        rates[0] = light.sh_lr as f32;
+        let rates = Tensor::<2>::from_data(TensorData::new(rates, [k, 1]), &self.device);
+        if light.shared_environment
+            && let Some(grad) = self.volume.environment.val().grad(grads)
+        {
+            let value = self.volume.environment.val().inner();
+            let unit = self
+                .environment_adam
+                .step(value.clone(), grad, 1.0, &config);
+            let updated = value.clone() - (value - unit) * rates.clone().expand([k, 3]);
+            self.volume.environment =
+                burn::module::Param::from_tensor(updated.autodiff().require_grad());
+        }
+        if self.step >= light.probes_from_step
+            && let Some(grad) = self.volume.sh.val().grad(grads)
+        {
             let value = self.volume.sh.val().inner();
             let [p, k, c] = value.dims();
             let unit = self.sh_adam.step(value.clone(), grad, 1.0, &config);
-            let light = &self.config.light;
-            let mut rates = vec![(light.sh_lr * light.sh_rest_ratio) as f32; k];
-            rates[0] = light.sh_lr as f32;
-            let rates = Tensor::<3>::from_data(TensorData::new(rates, [1, k, 1]), &value.device());
-            let updated = value.clone() - (value - unit) * rates.expand([p, k, c]);
+            let rates = rates.reshape([1, k, 1]).expand([p, k, c]);
+            let updated = value.clone() - (value - unit) * rates;
             self.volume.sh = burn::module::Param::from_tensor(updated.autodiff().require_grad());
         }
         if let Some(grad) = self.volume.latent.val().grad(grads) {

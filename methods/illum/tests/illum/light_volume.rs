@@ -2,14 +2,15 @@
 //! radiance; weights sum to 1; a probe reads itself; C⁰ across cell faces; clamping outside;
 //! the f64 reference; one-probe and flat grids; the unit-radiance init; gradients reach exactly
 //! the 8 corner probes. Eq. 13's probe smoothness by hand and against its reference (check 9),
-//! and the grid's bad inputs.
+//! the shared environment split off the probes, and the grid's bad inputs.
 
 use crate::{Rng, fresh_seed, values};
 use burn::module::Param;
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use splatzoo_illum::IllumError;
 use splatzoo_illum::light_volume::{
-    LATENT_INIT_STD, LightVolume, ProbeGrid, interpolate_reference, probe_smoothness_reference,
+    LATENT_INIT_STD, LightVolume, ProbeGrid, UNIT_RADIANCE_DC, interpolate_reference,
+    probe_smoothness_reference,
 };
 use splatzoo_rasterizer::sh::{coeff_count, sh_basis};
 
@@ -399,6 +400,83 @@ fn set_environment_lights_every_probe_alike() {
     let (sh, _) = volume.interpolate(points);
     assert_close(&values(sh), &environment.repeat(n), 1e-5, seed);
     assert_eq!(wide(&values(volume.latent.val())), latent, "seed {seed}");
+}
+
+/// Splitting the probes' mean off into the shared environment changes no probe, no
+/// interpolated value and not Eq. 13; on a fresh volume it leaves the unit radiance in the
+/// environment and zero in every probe; the environment's gradient is the sum over points of
+/// the interpolated coefficients' upstream gradient (the corner weights sum to 1); and writing
+/// an environment clears the probes' own parts.
+#[test]
+fn the_shared_environment_splits_off_without_changing_a_probe() {
+    let (seed, mut rng, device) = start();
+    let grid = random_grid(&mut rng, 1);
+    let (p, k) = (grid.count(), coeff_count(2));
+    let (volume, sh, _) = random_volume(grid, 2, 3, &mut rng, &device);
+    let n = 17;
+    let points = random_points(&grid, n, &mut rng);
+    let (before, _) = volume.interpolate(tensor2(&points, [n, 3], &device));
+    let smoothness = values(volume.probe_smoothness());
+    let split = volume.split_environment();
+    assert_close(&values(split.coefficients()), &sh, 1e-5, seed);
+    let (after, _) = split.interpolate(tensor2(&points, [n, 3], &device));
+    assert_close(&values(after), &wide(&values(before)), 1e-5, seed);
+    assert_close(
+        &values(split.probe_smoothness()),
+        &wide(&smoothness),
+        1e-5,
+        seed,
+    );
+    let mean: Vec<f64> = (0..k * 3)
+        .map(|j| (0..p).map(|i| sh[i * k * 3 + j]).sum::<f64>() / p as f64)
+        .collect();
+    assert_close(&values(split.environment.val()), &mean, 1e-5, seed);
+
+    let fresh = LightVolume::new(grid, 2, 3, seed, &device)
+        .expect("a volume")
+        .split_environment();
+    assert!(
+        values(fresh.sh.val()).iter().all(|&v| v == 0.0),
+        "seed {seed}"
+    );
+    let unit: Vec<f64> = (0..k * 3)
+        .map(|j| if j < 3 { UNIT_RADIANCE_DC } else { 0.0 })
+        .collect();
+    assert_close(&values(fresh.environment.val()), &unit, 1e-6, seed);
+
+    let autodiff = device.clone().autodiff();
+    let volume = LightVolume::new(grid, 2, 3, seed, &autodiff)
+        .expect("a volume")
+        .split_environment();
+    let upstream = gauss(&mut rng, n * k * 3);
+    let (sh, _) = volume.interpolate(tensor2(&points, [n, 3], &autodiff));
+    let loss = (sh * tensor2(&upstream, [n, k * 3], &autodiff).reshape([n, k, 3])).sum();
+    let grads = loss.backward();
+    let got = values(
+        volume
+            .environment
+            .val()
+            .grad(&grads)
+            .expect("the environment is reached"),
+    );
+    let want: Vec<f64> = (0..k * 3)
+        .map(|j| (0..n).map(|i| upstream[i * k * 3 + j]).sum())
+        .collect();
+    assert_close(&got, &want, 1e-5, seed);
+
+    let mut written = split;
+    let environment = gauss(&mut rng, k * 3);
+    written.set_environment(tensor2(&environment, [k, 3], &device));
+    assert_close(
+        &values(written.coefficients()),
+        &environment.repeat(p),
+        1e-6,
+        seed,
+    );
+    assert!(
+        values(written.sh.val()).iter().all(|&v| v == 0.0),
+        "seed {seed}"
+    );
 }
 
 /// `covering` spans the padded box within the probe budget (the spec's 4×2×4 m example at

@@ -1,7 +1,8 @@
 //! `train-illum`'s method on a tiny capture: it crosses the hand-over and a density edit of
 //! the human, resumes bit-exactly on the CPU from a stage-1 and from a stage-2 checkpoint,
-//! scores every held-out quantity, each Table-4 arm is one `--set` line that runs, and a
-//! schedule that leaves no stage 2 is refused by name.
+//! scores every held-out quantity, each Table-4 arm is one `--set` line that runs, a shared
+//! environment fitted before the probes resumes exactly too, and a schedule that leaves no
+//! stage 2 is refused by name.
 
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_illum::config::IllumConfig;
@@ -144,6 +145,55 @@ fn crosses_the_hand_over_and_resumes_exactly() {
         "{seen} of {probes} probes seen"
     );
     assert!(truth.shadow_error_without_ao.is_some());
+}
+
+/// `light.shared_environment` with `light.probes_from_step`: in stage 2 only the shared
+/// environment moves until that step (the probes' own parts stay exactly 0), then both do; a
+/// run resumed between the two phases ends bit-identical.
+#[test]
+fn the_shared_environment_is_fitted_first_and_resumes_exactly() {
+    let device = Device::flex();
+    let mut config = tiny();
+    config.light.shared_environment = true;
+    config.light.probes_from_step = 6;
+    let mut whole = Illum::new(config.clone(), &device).unwrap();
+    let start = with_step(&whole);
+    let initial = whole.trainer.volume.environment.val().into_data();
+    for _ in 0..6 {
+        whole.step().unwrap();
+    }
+    let residuals = crate::values(whole.trainer.volume.sh.val());
+    assert!(
+        residuals.iter().all(|&v| v == 0.0),
+        "the probes moved early"
+    );
+    assert_ne!(
+        whole.trainer.volume.environment.val().into_data(),
+        initial,
+        "the environment did not move in stage 2"
+    );
+    for _ in 6..config.iterations {
+        whole.step().unwrap();
+    }
+    let residuals = crate::values(whole.trainer.volume.sh.val());
+    assert!(
+        residuals.iter().any(|&v| v != 0.0),
+        "the probes never moved"
+    );
+
+    let mut first = Illum::resume(config.clone(), &start, &device).unwrap();
+    for _ in 0..5 {
+        first.step().unwrap();
+    }
+    let mut resumed = Illum::resume(config.clone(), &with_step(&first), &device).unwrap();
+    for _ in 5..config.iterations {
+        resumed.step().unwrap();
+    }
+    assert_same(
+        &with_step(&whole),
+        &with_step(&resumed),
+        "resumed at step 5",
+    );
 }
 
 #[test]
