@@ -187,10 +187,12 @@ pub struct LightSchedule {
     /// The higher SH bands' rate as a fraction of `sh_lr` (R3DG's `light_rest_lr` is a tenth).
     pub sh_rest_ratio: f64,
     /// Our choice, off in the paper: one SH environment shared by every probe, learned at the
-    /// probes' rates, with the probes as residuals on it (`LightVolume::split_environment`).
+    /// probes' rates (with its own Adam state, so a probe's total can move by up to twice
+    /// `sh_lr` a step), with the probes as residuals on it (`LightVolume::split_environment`).
     pub shared_environment: bool,
-    /// The training step from which the probes' own coefficients learn; before it only the
-    /// shared environment (when on) moves: the global light fitted first.
+    /// The training step (counted from the start of stage 1) from which the probes' own
+    /// coefficients learn; before it only the shared environment moves: the global light
+    /// fitted first. Needs `shared_environment` when > 0.
     pub probes_from_step: usize,
     pub latent_lr: f64,
     /// The shadow box's padding around the posed human, in body heights.
@@ -424,6 +426,23 @@ impl MethodConfig for IllumConfig {
         }
         if self.light.latent_dim == 0 {
             return bad("light.latent_dim", "must be at least 1".to_owned());
+        }
+        if self.light.probes_from_step > 0 && !self.light.shared_environment {
+            return bad(
+                "light.probes_from_step",
+                "holds the probes with nothing else learning the light: set \
+                 light.shared_environment = true"
+                    .to_owned(),
+            );
+        }
+        if self.light.probes_from_step >= self.iterations {
+            return bad(
+                "light.probes_from_step",
+                format!(
+                    "{} leaves the probes no step of the {} iterations",
+                    self.light.probes_from_step, self.iterations
+                ),
+            );
         }
         if self.scene.sh_degree > 3 {
             return bad(

@@ -15,8 +15,8 @@
 //! radiance), higher bands 0, latents `~ N(0, 0.01²)` from a seed.
 //!
 //! A probe's coefficients are `c_k = e + r_k`: a global SH environment `e` shared by every
-//! probe plus the probe's own `r_k`. By default `e = 0` and stays there, so `r_k` is the whole
-//! probe, as in the paper. [`LightVolume::split_environment`] moves the probes' mean into `e`
+//! probe plus the probe's own `r_k`. A new volume has `e = 0`, and the trainer leaves it there
+//! unless asked, so `r_k` is the whole probe, as in the paper. [`LightVolume::split_environment`] moves the probes' mean into `e`
 //! (our choice, `light.shared_environment`): the trainer can then fit one environment for the
 //! whole scene, which every pixel's gradient reaches, with the probes as residuals on it. Eq.
 //! 13 sees only differences between probes, so it smooths the residuals and leaves `e` free.
@@ -260,11 +260,13 @@ impl ProbeGrid {
     }
 }
 
-/// Eq. 6's probes: SH radiance `[P, K, 3]` and latents `[P, d_z]` on a [`ProbeGrid`].
+/// Eq. 6's probes: SH radiance `[P, K, 3]` (a shared environment `[K, 3]` plus each probe's
+/// own part) and latents `[P, d_z]` on a [`ProbeGrid`].
 #[derive(Module, Debug)]
 pub struct LightVolume {
     /// `[P, K, 3]` real-SH radiance coefficients per probe (no `+0.5`), on top of
-    /// [`Self::environment`].
+    /// [`Self::environment`]: the whole probe while that is 0 (the default), a residual
+    /// otherwise.
     pub sh: Param<Tensor<3>>,
     /// `[K, 3]` the SH environment every probe adds (zero unless split off).
     pub environment: Param<Tensor<2>>,
@@ -402,8 +404,8 @@ impl LightVolume {
     }
 
     /// Writes one SH environment `[K, 3]` into every probe (relighting, spec §5(a)): the
-    /// shared environment becomes `sh` and every probe's own part 0. Both become fresh
-    /// parameters (their optimiser state restarts); latents stay.
+    /// shared environment becomes `sh` and every probe's own part 0, both fresh parameters;
+    /// latents stay. (For inference: a trainer's optimiser state no longer matches them.)
     pub fn set_environment(&mut self, sh: Tensor<2>) {
         let [p, k, c] = self.sh.val().dims();
         assert_eq!(

@@ -6,6 +6,7 @@
 
 use crate::config::IllumConfig;
 use crate::eval::IllumScores;
+use crate::light_volume::LightVolume;
 use crate::trainer::{HUMAN, IllumTrainer, SCENE};
 use burn::module::Module;
 use burn::tensor::{Device, Int, Tensor};
@@ -50,6 +51,39 @@ pub struct Illum {
 fn put_network<M: Module>(c: &mut Checkpoint, prefix: &str, module: &M, adam: &ModuleAdam) {
     c.put_module(prefix, module);
     adam.save_under(module, c, &format!("{prefix}.optimizer"));
+}
+
+/// The light volume under `volume.` in `c`. A checkpoint written before the shared
+/// environment existed has no `volume.environment`: it resumes with the zero environment it
+/// had (the trainer's optimiser state for it stays fresh, as it was, never stepped), unless the
+/// configuration asks for a shared environment, which is refused by name.
+fn load_volume(
+    c: &Checkpoint,
+    fresh: LightVolume,
+    shared_environment: bool,
+) -> Result<LightVolume, TrainError> {
+    if c.tensors.contains_key("volume.environment") {
+        return Ok(c.module(fresh, "volume")?);
+    }
+    if shared_environment {
+        return Err(TrainError::Config(format!(
+            "{}: `volume.environment` missing: the checkpoint predates \
+             light.shared_environment; resume it with light.shared_environment = false",
+            c.origin
+        )));
+    }
+    let mut volume_only = Checkpoint {
+        origin: c.origin.clone(),
+        ..Checkpoint::default()
+    };
+    volume_only.tensors = c
+        .tensors
+        .iter()
+        .filter(|(name, _)| name.starts_with("volume."))
+        .map(|(name, value)| (name.clone(), value.clone()))
+        .collect();
+    volume_only.put("volume.environment", &fresh.environment.val());
+    Ok(volume_only.module(fresh, "volume")?)
 }
 
 fn load_network<M: Module>(
@@ -214,10 +248,13 @@ impl Method for Illum {
         let in_plane = c.tensor::<2>("body.in_plane", [Some(t.mesh.face_count()), Some(3)], &a)?;
         t.in_plane_adam = AdamState::load(c, "body.in_plane", &in_plane.clone().inner())?;
         t.body.in_plane = burn::module::Param::from_tensor(in_plane.require_grad());
-        t.volume = c.module(t.volume.clone(), "volume")?.train();
+        let with_environment = c.tensors.contains_key("volume.environment");
+        t.volume = load_volume(c, t.volume.clone(), t.config.light.shared_environment)?.train();
         t.sh_adam = AdamState::load(c, "volume.sh", &t.volume.sh.val().inner())?;
-        t.environment_adam =
-            AdamState::load(c, "volume.environment", &t.volume.environment.val().inner())?;
+        if with_environment {
+            t.environment_adam =
+                AdamState::load(c, "volume.environment", &t.volume.environment.val().inner())?;
+        }
         t.latent_adam = AdamState::load(c, "volume.latent", &t.volume.latent.val().inner())?;
         (t.decoder, t.decoder_adam) = load_network(c, "decoder", t.decoder.clone())?;
         (t.visibility, t.visibility_adam) = load_network(c, "visibility", t.visibility.clone())?;

@@ -1,8 +1,8 @@
 //! `train-illum`'s method on a tiny capture: it crosses the hand-over and a density edit of
 //! the human, resumes bit-exactly on the CPU from a stage-1 and from a stage-2 checkpoint,
 //! scores every held-out quantity, each Table-4 arm is one `--set` line that runs, a shared
-//! environment fitted before the probes resumes exactly too, and a schedule that leaves no
-//! stage 2 is refused by name.
+//! environment fitted before the probes resumes exactly too (and a checkpoint from before it
+//! as before), and a schedule that leaves no stage 2 is refused by name.
 
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_illum::config::IllumConfig;
@@ -196,6 +196,44 @@ fn the_shared_environment_is_fitted_first_and_resumes_exactly() {
     );
 }
 
+/// A checkpoint written before the shared environment existed (no `volume.environment` and no
+/// optimiser state for it) resumes to exactly what the full checkpoint resumes to; asking it
+/// for a shared environment is refused by name.
+#[test]
+fn a_checkpoint_from_before_the_environment_resumes_as_before() {
+    let device = Device::flex();
+    let config = tiny();
+    let mut run = Illum::new(config.clone(), &device).unwrap();
+    for _ in 0..4 {
+        run.step().unwrap();
+    }
+    let full = with_step(&run);
+    let mut old = full.clone();
+    old.tensors
+        .retain(|name, _| !name.starts_with("volume.environment"));
+    old.metadata
+        .retain(|name, _| !name.starts_with("volume.environment"));
+    assert!(old.tensors.len() < full.tensors.len());
+    let mut from_full = Illum::resume(config.clone(), &full, &device).unwrap();
+    let mut from_old = Illum::resume(config.clone(), &old, &device).unwrap();
+    for _ in 4..config.iterations {
+        from_full.step().unwrap();
+        from_old.step().unwrap();
+    }
+    assert_same(
+        &with_step(&from_full),
+        &with_step(&from_old),
+        "resumed without the environment",
+    );
+    let mut shared = config;
+    shared.light.shared_environment = true;
+    let error = Illum::resume(shared, &old, &device)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(error.contains("volume.environment"), "{error}");
+}
+
 #[test]
 fn each_arm_is_one_line_and_runs() {
     let device = Device::flex();
@@ -262,10 +300,22 @@ fn a_schedule_without_stage_two_is_refused_by_name() {
     bad.stage1.steps = 10;
     let error = bad.validate().expect_err("refused").to_string();
     assert!(error.contains("stage1.steps"), "{error}");
-    let mut bad = config;
+    let mut bad = config.clone();
     bad.light.degree = 4;
     let error = bad.validate().expect_err("refused").to_string();
     assert!(error.contains("light.degree"), "{error}");
+    // Holding the probes needs the shared environment, and must end before the run does.
+    let mut bad = config.clone();
+    bad.light.probes_from_step = 5;
+    let error = bad.validate().expect_err("refused").to_string();
+    assert!(error.contains("light.shared_environment"), "{error}");
+    let mut bad = config;
+    bad.light.shared_environment = true;
+    bad.light.probes_from_step = 10;
+    let error = bad.validate().expect_err("refused").to_string();
+    assert!(error.contains("light.probes_from_step"), "{error}");
+    bad.light.probes_from_step = 9;
+    bad.validate().expect("the probes learn at the last step");
 }
 
 /// GauHuman's distance-to-mesh prune (on by default under KL density control): the refined
