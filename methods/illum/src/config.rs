@@ -186,9 +186,11 @@ pub struct LightSchedule {
     pub sh_lr: f64,
     /// The higher SH bands' rate as a fraction of `sh_lr` (R3DG's `light_rest_lr` is a tenth).
     pub sh_rest_ratio: f64,
-    /// Our choice, off in the paper: one SH environment shared by every probe, learned at the
-    /// probes' rates (with its own Adam state, so a probe's total can move by up to twice
-    /// `sh_lr` a step), with the probes as residuals on it (`LightVolume::split_environment`).
+    /// Our choice (the paper learns each probe alone): one SH environment shared by every
+    /// probe, learned at the probes' rates (with its own Adam state, so a probe's total can
+    /// move by up to twice `sh_lr` a step), with the probes as residuals on it
+    /// (`LightVolume::split_environment`). The same light field, learned differently: on by
+    /// default since two seeds showed better albedo, human crop and probes (README).
     pub shared_environment: bool,
     /// The training step (counted from the start of stage 1) from which the probes' own
     /// coefficients learn; before it only the shared environment moves: the global light
@@ -214,7 +216,7 @@ impl Default for LightSchedule {
             // steps, in which Adam moves a coefficient by at most about lr per step.
             sh_lr: 1e-2,
             sh_rest_ratio: 0.1,
-            shared_environment: false,
+            shared_environment: true,
             probes_from_step: 0,
             latent_lr: 1e-3,
             shadow_pad: 0.5,

@@ -15,11 +15,12 @@
 //! radiance), higher bands 0, latents `~ N(0, 0.01²)` from a seed.
 //!
 //! A probe's coefficients are `c_k = e + r_k`: a global SH environment `e` shared by every
-//! probe plus the probe's own `r_k`. A new volume has `e = 0`, and the trainer leaves it there
-//! unless asked, so `r_k` is the whole probe, as in the paper. [`LightVolume::split_environment`] moves the probes' mean into `e`
-//! (our choice, `light.shared_environment`): the trainer can then fit one environment for the
-//! whole scene, which every pixel's gradient reaches, with the probes as residuals on it. Eq.
-//! 13 sees only differences between probes, so it smooths the residuals and leaves `e` free.
+//! probe plus the probe's own `r_k`. A new volume has `e = 0`, so `r_k` is the whole probe, as
+//! in the paper. [`LightVolume::split_environment`] moves the probes' mean into `e` (our
+//! choice, `light.shared_environment`, on by default): the trainer then fits one environment
+//! for the whole scene, which every pixel's gradient reaches, with the probes as residuals on
+//! it. The light field is the same; only how it is learned changes. Eq. 13 sees only
+//! differences between probes, so it smooths the residuals and leaves `e` free.
 //!
 //! Each Burn-ops function has a scalar f64 reference beside it for the tests:
 //! [`interpolate_reference`] (a sum of tent functions over every probe, not a corner lookup) and

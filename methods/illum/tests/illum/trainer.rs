@@ -154,7 +154,7 @@ fn crosses_the_hand_over_and_resumes_exactly() {
 fn the_shared_environment_is_fitted_first_and_resumes_exactly() {
     let device = Device::flex();
     let mut config = tiny();
-    config.light.shared_environment = true;
+    assert!(config.light.shared_environment, "on by default");
     config.light.probes_from_step = 6;
     let mut whole = Illum::new(config.clone(), &device).unwrap();
     let start = with_step(&whole);
@@ -202,7 +202,8 @@ fn the_shared_environment_is_fitted_first_and_resumes_exactly() {
 #[test]
 fn a_checkpoint_from_before_the_environment_resumes_as_before() {
     let device = Device::flex();
-    let config = tiny();
+    let mut config = tiny();
+    config.light.shared_environment = false;
     let mut run = Illum::new(config.clone(), &device).unwrap();
     for _ in 0..4 {
         run.step().unwrap();
@@ -306,6 +307,7 @@ fn a_schedule_without_stage_two_is_refused_by_name() {
     assert!(error.contains("light.degree"), "{error}");
     // Holding the probes needs the shared environment, and must end before the run does.
     let mut bad = config.clone();
+    bad.light.shared_environment = false;
     bad.light.probes_from_step = 5;
     let error = bad.validate().expect_err("refused").to_string();
     assert!(error.contains("light.shared_environment"), "{error}");
