@@ -386,16 +386,18 @@ impl LightVolume {
         let [p, k, c] = sh.dims();
         let (indices, weights) = self.grid.corner_weights(points);
         let own = blend(sh.reshape([p, k * c]), indices.clone(), weights.clone());
+        let latent = blend(self.latent.val(), indices, weights);
+        if n == 0 {
+            // Burn cannot expand to a zero-length axis; nothing is added to no points.
+            return (own.reshape([n, k, c]), latent);
+        }
         // The corner weights sum to 1, so the shared environment adds once.
         let shared = self
             .environment
             .val()
             .reshape([1, k * c])
             .expand([n, k * c]);
-        (
-            (own + shared).reshape([n, k, c]),
-            blend(self.latent.val(), indices, weights),
-        )
+        ((own + shared).reshape([n, k, c]), latent)
     }
 
     /// The latent half of [`Self::interpolate`], `[N, d_z]` (Eq. 8's `z` at scene points).

@@ -11,7 +11,7 @@ use splatzoo_illum::trainer::IllumTrainer;
 use splatzoo_train::harness::Method;
 
 /// Sets every probe to `gain ×` the analytic SH of the training light, band `l` further scaled
-/// by `band_scale[l]`.
+/// by `band_scale[l]`: the whole coefficient in the probe's own part, the shared environment 0.
 fn set_probes(trainer: &mut IllumTrainer, gain: f64, band_scale: [f64; 3]) {
     let truth = trainer
         .capture
@@ -36,6 +36,7 @@ fn set_probes(trainer: &mut IllumTrainer, gain: f64, band_scale: [f64; 3]) {
         TensorData::new(values, [p, k, 3]),
         &device,
     ));
+    trainer.volume.environment = Param::from_tensor(Tensor::zeros([k, 3], &device));
 }
 
 #[test]
