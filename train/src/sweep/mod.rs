@@ -15,6 +15,7 @@
 //! The sweep runs binaries by name so that the engine names no method.
 
 pub mod grid;
+pub mod labels;
 pub mod pareto;
 pub mod plot;
 pub mod record;

@@ -1,8 +1,10 @@
 //! The sweep's figures, drawn with `plotters` to PNG and SVG: every point (mean over seeds, the
 //! seeds' range as error bars on both axes), the Pareto front highlighted and joined, the
-//! default configuration marked. The PNG's text uses a font compiled in (Ubuntu Light, from
+//! default configuration marked, each point named where the name clears the others
+//! ([`super::labels`]). The PNG's text uses a font compiled in (Ubuntu Light, from
 //! `epaint_default_fonts`), so no system font is needed.
 
+use super::labels::{LabelBox, place_labels};
 use super::record::Spread;
 use crate::error::TrainError;
 use plotters::coord::Shift;
@@ -159,10 +161,37 @@ impl FrontPlot {
             .map_err(text)?
             .label("default")
             .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 8, red.filled()));
+        let font = (FONT, 13).into_font();
+        let markers: Vec<(i32, i32)> = self
+            .points
+            .iter()
+            .map(|p| chart.backend_coord(&(p.x.mean, p.y.mean)))
+            .collect();
+        let sizes = self
+            .points
+            .iter()
+            .map(|p| {
+                let (w, h) = root
+                    .estimate_text_size(&p.label, &TextStyle::from(font.clone()))
+                    .map_err(text)?;
+                Ok((w as i32, h as i32))
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        // The front's names first, then the default's, then the dominated points'.
+        let mut order: Vec<usize> = (0..self.points.len()).collect();
+        order.sort_by_key(|&i| (!self.points[i].front, !self.points[i].default));
+        let (xs, ys) = chart.plotting_area().get_pixel_range();
+        let area = LabelBox {
+            x: xs.start,
+            y: ys.start,
+            width: xs.end - xs.start,
+            height: ys.end - ys.start,
+        };
+        let offsets = place_labels(&markers, &sizes, &order, area);
         chart
-            .draw_series(self.points.iter().map(|p| {
+            .draw_series(self.points.iter().zip(offsets).map(|(p, offset)| {
                 EmptyElement::at((p.x.mean, p.y.mean))
-                    + Text::new(p.label.clone(), (8, -18), (FONT, 13).into_font())
+                    + Text::new(p.label.clone(), offset, font.clone())
             }))
             .map_err(text)?;
         chart

@@ -2,6 +2,7 @@
 //! scripted trainer (figures known in advance: fronts, a failing point, merging, seeds,
 //! resumption) and over the real `train-3dgs`.
 
+use splatzoo_train::sweep::labels::{LabelBox, place_labels};
 use splatzoo_train::sweep::pareto::{Better, front};
 use splatzoo_train::sweep::{self, Status, SweepOptions, SweepSpec, Trainer};
 use std::path::{Path, PathBuf};
@@ -31,6 +32,79 @@ fn the_front_keeps_exactly_the_undominated_points() {
     let errors = [[10.0, 5.0], [20.0, 6.0], [30.0, 4.0]];
     assert_eq!(front(&errors, [Lower, Lower]), [true, false, true]);
     assert!(front(&[], [Lower, Higher]).is_empty());
+}
+
+/// Names of points that land on top of each other are spread apart: on random clusters of
+/// markers, every placed label stays in the plot, clears every other label and every other
+/// marker; a lone marker's name goes right above it; no markers place nothing.
+#[test]
+fn clustered_point_names_do_not_overlap() {
+    let area = LabelBox {
+        x: 0,
+        y: 0,
+        width: 900,
+        height: 600,
+    };
+    let boxes = |markers: &[(i32, i32)], sizes: &[(i32, i32)], offsets: &[(i32, i32)]| {
+        (0..markers.len())
+            .map(|i| LabelBox {
+                x: markers[i].0 + offsets[i].0,
+                y: markers[i].1 + offsets[i].1,
+                width: sizes[i].0,
+                height: sizes[i].1,
+            })
+            .collect::<Vec<_>>()
+    };
+    let disjoint = |a: &LabelBox, b: &LabelBox| {
+        a.x + a.width <= b.x
+            || b.x + b.width <= a.x
+            || a.y + a.height <= b.y
+            || b.y + b.height <= a.y
+    };
+    assert!(place_labels(&[], &[], &[], area).is_empty());
+    let lone = place_labels(&[(400, 300)], &[(120, 14)], &[0], area);
+    assert_eq!(lone, vec![(8, -22)], "right above the marker");
+
+    let mut state = 0x2545_f491_u64 ^ std::process::id() as u64;
+    let mut next = |n: i32| {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 33) % n as u64) as i32
+    };
+    for trial in 0..50 {
+        // Four names within a 30-pixel square in mid-plot: the Illum sweep's crowd.
+        let (cx, cy) = (300 + next(300), 200 + next(200));
+        let markers: Vec<(i32, i32)> = (0..4).map(|_| (cx + next(30), cy + next(30))).collect();
+        let sizes: Vec<(i32, i32)> = (0..4).map(|_| (60 + next(200), 14)).collect();
+        let order: Vec<usize> = (0..4).collect();
+        let offsets = place_labels(&markers, &sizes, &order, area);
+        let placed = boxes(&markers, &sizes, &offsets);
+        for (i, a) in placed.iter().enumerate() {
+            assert!(
+                a.x >= 0 && a.y >= 0 && a.x + a.width <= 900 && a.y + a.height <= 600,
+                "trial {trial}: label {i} leaves the plot: {a:?}"
+            );
+            for (j, b) in placed.iter().enumerate().skip(i + 1) {
+                assert!(
+                    disjoint(a, b),
+                    "trial {trial}: labels {i} and {j} overlap: {placed:?}"
+                );
+            }
+            for (j, &(mx, my)) in markers.iter().enumerate().filter(|&(j, _)| j != i) {
+                let marker = LabelBox {
+                    x: mx - 8,
+                    y: my - 8,
+                    width: 16,
+                    height: 16,
+                };
+                assert!(
+                    disjoint(a, &marker),
+                    "trial {trial}: label {i} covers marker {j}"
+                );
+            }
+        }
+    }
 }
 
 fn spec(text: &str) -> SweepSpec {
