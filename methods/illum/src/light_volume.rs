@@ -362,8 +362,8 @@ impl LightVolume {
     /// Every probe's whole coefficients `e + r_k`, `[P, K, 3]`.
     pub fn coefficients(&self) -> Tensor<3> {
         let sh = self.sh.val();
-        let [p, k, c] = sh.dims();
-        sh + self.environment.val().reshape([1, k, c]).expand([p, k, c])
+        let [_, k, c] = sh.dims();
+        sh + self.environment.val().reshape([1, k, c])
     }
 
     /// The SH degree, from the coefficient count `K = (degree + 1)²`.
@@ -386,18 +386,13 @@ impl LightVolume {
         let [p, k, c] = sh.dims();
         let (indices, weights) = self.grid.corner_weights(points);
         let own = blend(sh.reshape([p, k * c]), indices.clone(), weights.clone());
-        let latent = blend(self.latent.val(), indices, weights);
-        if n == 0 {
-            // Burn cannot expand to a zero-length axis; nothing is added to no points.
-            return (own.reshape([n, k, c]), latent);
-        }
-        // The corner weights sum to 1, so the shared environment adds once.
-        let shared = self
-            .environment
-            .val()
-            .reshape([1, k * c])
-            .expand([n, k * c]);
-        ((own + shared).reshape([n, k, c]), latent)
+        // The corner weights sum to 1, so the shared environment adds once (broadcast over the
+        // points, so no points add nothing).
+        let shared = self.environment.val().reshape([1, k * c]);
+        (
+            (own + shared).reshape([n, k, c]),
+            blend(self.latent.val(), indices, weights),
+        )
     }
 
     /// The latent half of [`Self::interpolate`], `[N, d_z]` (Eq. 8's `z` at scene points).

@@ -69,13 +69,14 @@ pub fn place_labels(
             (GAP, -GAP - 3 * h),
             (GAP, GAP + 2 * h),
         ];
-        let overlap = |dx: i32, dy: i32| -> i64 {
-            let label = LabelBox {
-                x: markers[i].0 + dx,
-                y: markers[i].1 + dy,
-                width: w,
-                height: h,
-            };
+        let at = |(dx, dy): (i32, i32)| LabelBox {
+            x: markers[i].0 + dx,
+            y: markers[i].1 + dy,
+            width: w,
+            height: h,
+        };
+        let overlap = |offset: (i32, i32)| -> i64 {
+            let label = at(offset);
             let area_penalty = if label.inside(&area) { 0 } else { 1_000_000 };
             let clashes = placed
                 .iter()
@@ -90,18 +91,12 @@ pub fn place_labels(
                 .count() as i64;
             area_penalty + clashes
         };
-        let (dx, dy) = candidates
-            .iter()
-            .copied()
-            .min_by_key(|&(dx, dy)| overlap(dx, dy))
+        let offset = candidates
+            .into_iter()
+            .min_by_key(|&offset| overlap(offset))
             .expect("candidates");
-        offsets[i] = (dx, dy);
-        placed.push(LabelBox {
-            x: markers[i].0 + dx,
-            y: markers[i].1 + dy,
-            width: w,
-            height: h,
-        });
+        offsets[i] = offset;
+        placed.push(at(offset));
     }
     offsets
 }
