@@ -659,6 +659,8 @@ const ILLUM_SMALL: &[&str] = &[
     "--set",
     "visibility.labels=128",
     "--set",
+    "visibility.warmup=4",
+    "--set",
     "checkpoint_every=0",
 ];
 

@@ -117,9 +117,19 @@ impl Illum {
         capture: crate::data::IllumCapture,
         device: &Device,
     ) -> Result<Self, TrainError> {
-        let trainer = IllumTrainer::from_capture(config, capture, device)?;
+        Ok(Self::around(IllumTrainer::from_capture(
+            config, capture, device,
+        )?))
+    }
+
+    /// The method around a freshly built trainer. Without stage 1 the hand-over happens at
+    /// construction, and so does F_vis's warm-up.
+    fn around(mut trainer: IllumTrainer) -> Self {
+        if trainer.stage2.is_some() {
+            trainer.visibility_warmup();
+        }
         let decisions = Self::decisions_for(&trainer);
-        Ok(Self { trainer, decisions })
+        Self { trainer, decisions }
     }
 
     fn decisions_for(trainer: &IllumTrainer) -> Vec<String> {
@@ -223,9 +233,7 @@ impl Method for Illum {
     }
 
     fn new(config: IllumConfig, device: &Device) -> Result<Self, TrainError> {
-        let trainer = IllumTrainer::new(config, device)?;
-        let decisions = Self::decisions_for(&trainer);
-        Ok(Self { trainer, decisions })
+        Ok(Self::around(IllumTrainer::new(config, device)?))
     }
 
     fn resume(config: IllumConfig, c: &Checkpoint, device: &Device) -> Result<Self, TrainError> {
@@ -326,6 +334,14 @@ impl Method for Illum {
                     }
                 ));
                 t.stage2 = Some(stage2);
+                if let Some((first, last)) = t.visibility_warmup() {
+                    note = note.map(|n| {
+                        format!(
+                            "{n}; F_vis warmed up for {} steps on the training poses (BCE {first:.3} → {last:.3})",
+                            t.config.visibility.warmup
+                        )
+                    });
+                }
             }
             t.stage2_step()?
         };

@@ -536,6 +536,62 @@ impl IllumTrainer {
     /// mesh. Returns the loss.
     pub fn visibility_step(&mut self, pose: &FramePose, frame: usize, seed: u64) -> f64 {
         let labels = self.visibility_labels(frame, self.config.visibility.labels, seed);
+        self.fit_visibility(pose, labels)
+    }
+
+    /// `visibility.warmup` F_vis steps on their own at the hand-over (our choice; see
+    /// [`crate::config::VisibilitySchedule::warmup`]): step `i` takes training frame
+    /// `i mod T` of a seeded shuffle, so every training pose is seen alike; each frame's posed
+    /// mesh and its BVH are built once. Returns the mean BCE of the first and the last tenth
+    /// of the steps, or `None` when there are none (or F_vis is not in use).
+    pub fn visibility_warmup(&mut self) -> Option<(f64, f64)> {
+        let steps = self.config.visibility.warmup;
+        if steps == 0
+            || !self.config.ablation.light_volume
+            || self.config.visibility.source != VisibilitySource::Net
+        {
+            return None;
+        }
+        let mut order: Vec<usize> = self
+            .train
+            .iter()
+            .map(|&k| self.capture.frames[k].frame)
+            .collect();
+        if order.is_empty() {
+            return None;
+        }
+        let mut rng = StdRng::seed_from_u64(self.config.seed ^ 0xF715_3A2B);
+        for i in (1..order.len()).rev() {
+            order.swap(i, rng.random_range(0..=i));
+        }
+        let meshes: Vec<PosedVisibilityMesh> =
+            order.iter().map(|&f| self.visibility_mesh(f)).collect();
+        let tenth = steps.div_ceil(10);
+        let (mut first, mut last) = (0.0, 0.0);
+        for i in 0..steps {
+            let k = i % order.len();
+            let pose = self.frame_pose(order[k], true);
+            let labels = meshes[k].labels(
+                self.config.visibility.labels,
+                self.config.seed ^ (i as u64).wrapping_mul(0x2545_F491_4F6C_DD1D),
+            );
+            let loss = self.fit_visibility(&pose, labels);
+            if i < tenth {
+                first += loss / tenth as f64;
+            }
+            if i >= steps - tenth {
+                last += loss / tenth as f64;
+            }
+        }
+        Some((first, last))
+    }
+
+    /// One Adam step of F_vis on `labels` cast in `pose`. Returns the BCE.
+    fn fit_visibility(
+        &mut self,
+        pose: &FramePose,
+        labels: crate::visibility::VisibilityLabels,
+    ) -> f64 {
         let count = labels.open.len();
         let a = &self.autodiff;
         let flat = |v: &[[f64; 3]]| -> Vec<f32> { v.iter().flatten().map(|&x| x as f32).collect() };
@@ -563,6 +619,12 @@ impl IllumTrainer {
         count: usize,
         seed: u64,
     ) -> crate::visibility::VisibilityLabels {
+        self.visibility_mesh(frame).labels(count, seed)
+    }
+
+    /// Frame `frame`'s posed refined mesh, its normals and its BVH, with the canonical
+    /// vertices the labels name.
+    fn visibility_mesh(&self, frame: usize) -> PosedVisibilityMesh {
         let stage2 = self.stage2.as_ref().expect("F_vis is trained in stage 2");
         let v = self.mesh.vertex_count();
         let posed = pose_refined(&self.frame_pose(frame, false).posed, stage2.offsets.clone());
@@ -577,14 +639,35 @@ impl IllumTrainer {
             .chunks(3)
             .map(|t| [t[0], t[1], t[2]])
             .collect();
-        let bvh = TriangleBvh::new(&placed, &triangles);
+        PosedVisibilityMesh {
+            bvh: TriangleBvh::new(&placed, &triangles),
+            canonical,
+            placed,
+            normals,
+            height: self.mesh.height,
+        }
+    }
+}
+
+/// One pose of the refined mesh, ready to cast F_vis's labels on.
+struct PosedVisibilityMesh {
+    bvh: TriangleBvh,
+    canonical: Vec<[f64; 3]>,
+    placed: Vec<[f64; 3]>,
+    normals: Vec<[f64; 3]>,
+    height: f64,
+}
+
+impl PosedVisibilityMesh {
+    /// `count` labelled pairs drawn with `seed`.
+    fn labels(&self, count: usize, seed: u64) -> crate::visibility::VisibilityLabels {
         let mut rng = StdRng::seed_from_u64(seed ^ 0x7150);
         sample_labels(
-            &bvh,
-            &canonical,
-            &placed,
-            &normals,
-            self.mesh.height,
+            &self.bvh,
+            &self.canonical,
+            &self.placed,
+            &self.normals,
+            self.height,
             count,
             &mut rng,
         )

@@ -4,10 +4,12 @@
 //! environment fitted before the probes resumes exactly too (and a checkpoint from before it
 //! as before), and a schedule that leaves no stage 2 is refused by name.
 
+use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
 use splatzoo_illum::config::IllumConfig;
 use splatzoo_illum::data::IllumDataConfig;
 use splatzoo_illum::method::{Illum, IllumArgs};
+use splatzoo_illum::visibility::bce_with_logits;
 use splatzoo_train::checkpoint::Checkpoint;
 use splatzoo_train::densify::DensifyConfig;
 use splatzoo_train::harness::{Method, MethodConfig};
@@ -42,6 +44,7 @@ pub fn tiny() -> IllumConfig {
         ..config.stage2.densify.clone()
     };
     config.visibility.labels = 128;
+    config.visibility.warmup = 4;
     config
 }
 
@@ -82,8 +85,10 @@ fn crosses_the_hand_over_and_resumes_exactly() {
         notes.extend(report.note);
     }
     assert!(
-        notes.iter().any(|n| n.starts_with("stage 2")),
-        "no hand-over note in {notes:?}"
+        notes
+            .iter()
+            .any(|n| n.starts_with("stage 2") && n.contains("F_vis warmed up for 4 steps")),
+        "no hand-over note with F_vis's warm-up in {notes:?}"
     );
     let human = whole
         .trainer
@@ -368,4 +373,91 @@ fn the_human_is_pruned_where_it_leaves_the_refined_mesh() {
         assert!(method.steps() < config.iterations, "no density decision");
     };
     assert!(note.contains("(1 off the mesh)"), "{note}");
+}
+
+/// F_vis's BCE on fresh labels of every training pose (seeds no step draws).
+fn fresh_visibility_loss(method: &Illum) -> f64 {
+    let t = &method.trainer;
+    let mut total = 0.0;
+    for &k in &t.train {
+        let frame = t.capture.frames[k].frame;
+        let labels = t.visibility_labels(frame, 256, 0xFE5E ^ frame as u64);
+        let pose = t.frame_pose(frame, false);
+        let count = labels.open.len();
+        let flat = |v: &[[f64; 3]]| -> Vec<f32> { v.iter().flatten().map(|&x| x as f32).collect() };
+        let device = &t.device;
+        let points =
+            Tensor::<2>::from_data(TensorData::new(flat(&labels.points), [count, 3]), device);
+        let world = Tensor::<2>::from_data(
+            TensorData::new(flat(&labels.directions), [count, 3]),
+            device,
+        );
+        let local = world.matmul(pose.root.clone()).reshape([count, 1, 3]);
+        let open = Tensor::<2>::from_data(TensorData::new(labels.open, [count, 1]), device);
+        let logits = t.visibility.valid().logits(points, local, pose.pose_vector);
+        total += bce_with_logits(logits, open).into_scalar::<f32>() as f64;
+    }
+    total / t.train.len() as f64
+}
+
+/// `visibility.warmup`: F_vis's own steps run once, at the hand-over, on the training poses,
+/// and lower its loss on fresh labels of those poses; the image steps of stage 2 are the same
+/// in number either way, and a run without it leaves F_vis as drawn until stage 2's first step.
+#[test]
+fn fvis_warms_up_at_the_hand_over_on_the_training_poses() {
+    let device = Device::flex();
+    let mut config = tiny();
+    config.visibility.warmup = 0;
+    let mut method = Illum::new(config.clone(), &device).unwrap();
+    let start = with_step(&method);
+    for _ in 0..config.stage1.steps {
+        method.step().unwrap();
+    }
+    let trainer = &mut method.trainer;
+    trainer.stage2 = Some(trainer.hand_over());
+    assert_eq!(
+        trainer.visibility_warmup(),
+        None,
+        "no warm-up was asked for"
+    );
+    let before = fresh_visibility_loss(&method);
+    let trainer = &mut method.trainer;
+    trainer.config.visibility.warmup = 60;
+    let (first, last) = trainer.visibility_warmup().expect("60 warm-up steps");
+    let after = fresh_visibility_loss(&method);
+    println!("warm-up BCE {first:.4} → {last:.4}; fresh labels {before:.4} → {after:.4}");
+    assert!(last < first, "the warm-up's BCE went {first} → {last}");
+    assert!(
+        after < 0.9 * before,
+        "fresh labels of the training poses: BCE {before} → {after}"
+    );
+
+    // Through the harness: F_vis is untouched through stage 1 either way, and the warm-up
+    // happens inside the hand-over step.
+    config.visibility.warmup = 60;
+    let mut warmed = Illum::resume(config.clone(), &start, &device).unwrap();
+    let mut plain = Illum::resume(tiny_without_warmup(&config), &start, &device).unwrap();
+    for _ in 0..config.stage1.steps {
+        warmed.step().unwrap();
+        plain.step().unwrap();
+    }
+    let weights = |m: &Illum| m.trainer.visibility.head.weight.val().into_data();
+    assert_eq!(weights(&warmed), weights(&plain), "F_vis moved in stage 1");
+    let note = warmed.step().unwrap().note.unwrap_or_default();
+    plain.step().unwrap();
+    assert!(note.contains("F_vis warmed up for 60 steps"), "{note}");
+    let (warmed, plain) = (
+        fresh_visibility_loss(&warmed),
+        fresh_visibility_loss(&plain),
+    );
+    assert!(
+        warmed < 0.9 * plain,
+        "after the hand-over step: BCE {warmed} warmed up, {plain} not"
+    );
+}
+
+fn tiny_without_warmup(config: &IllumConfig) -> IllumConfig {
+    let mut config = config.clone();
+    config.visibility.warmup = 0;
+    config
 }
