@@ -536,13 +536,13 @@ impl IllumTrainer {
     /// mesh. Returns the loss.
     pub fn visibility_step(&mut self, pose: &FramePose, frame: usize, seed: u64) -> f64 {
         let labels = self.visibility_labels(frame, self.config.visibility.labels, seed);
-        self.fit_visibility(pose, labels)
+        self.fit_visibility(pose.root.clone(), pose.pose_vector.clone(), labels)
     }
 
     /// `visibility.warmup` F_vis steps on their own at the hand-over (our choice; see
     /// [`crate::config::VisibilitySchedule::warmup`]): step `i` takes training frame
     /// `i mod T` of a seeded shuffle, so every training pose is seen alike; each frame's posed
-    /// mesh and its BVH are built once. Returns the mean BCE of the first and the last tenth
+    /// mesh, its BVH and its pose inputs are built once. Returns the mean BCE of the first and the last tenth
     /// of the steps, or `None` when there are none (or F_vis is not in use).
     pub fn visibility_warmup(&mut self) -> Option<(f64, f64)> {
         let steps = self.config.visibility.warmup;
@@ -566,16 +566,28 @@ impl IllumTrainer {
         }
         let meshes: Vec<PosedVisibilityMesh> =
             order.iter().map(|&f| self.visibility_mesh(f)).collect();
+        // The pose inputs as constants of the autodiff device (F_vis's step needs no gradient
+        // to the pose).
+        let a = &self.autodiff;
+        let inputs: Vec<(Tensor<2>, Tensor<1>)> = meshes
+            .iter()
+            .map(|m| {
+                (
+                    Tensor::from_data(m.root.clone().into_data(), a),
+                    Tensor::from_data(m.pose_vector.clone().into_data(), a),
+                )
+            })
+            .collect();
         let tenth = steps.div_ceil(10);
         let (mut first, mut last) = (0.0, 0.0);
         for i in 0..steps {
             let k = i % order.len();
-            let pose = self.frame_pose(order[k], true);
+            let (root, pose_vector) = inputs[k].clone();
             let labels = meshes[k].labels(
                 self.config.visibility.labels,
                 self.config.seed ^ (i as u64).wrapping_mul(0x2545_F491_4F6C_DD1D),
             );
-            let loss = self.fit_visibility(&pose, labels);
+            let loss = self.fit_visibility(root, pose_vector, labels);
             if i < tenth {
                 first += loss / tenth as f64;
             }
@@ -586,10 +598,12 @@ impl IllumTrainer {
         Some((first, last))
     }
 
-    /// One Adam step of F_vis on `labels` cast in `pose`. Returns the BCE.
+    /// One Adam step of F_vis on `labels` cast in the pose of root rotation `root` and pose
+    /// vector `pose_vector` (autodiff device). Returns the BCE.
     fn fit_visibility(
         &mut self,
-        pose: &FramePose,
+        root: Tensor<2>,
+        pose_vector: Tensor<1>,
         labels: crate::visibility::VisibilityLabels,
     ) -> f64 {
         let count = labels.open.len();
@@ -598,11 +612,9 @@ impl IllumTrainer {
         let points = Tensor::<2>::from_data(TensorData::new(flat(&labels.points), [count, 3]), a);
         let world =
             Tensor::<2>::from_data(TensorData::new(flat(&labels.directions), [count, 3]), a);
-        let local = world.matmul(pose.root.clone()).reshape([count, 1, 3]);
+        let local = world.matmul(root).reshape([count, 1, 3]);
         let open = Tensor::<2>::from_data(TensorData::new(labels.open, [count, 1]), a);
-        let logits = self
-            .visibility
-            .logits(points, local, pose.pose_vector.clone());
+        let logits = self.visibility.logits(points, local, pose_vector);
         let loss = bce_with_logits(logits, open);
         let value = scalar(loss.clone());
         let grads = loss.backward();
@@ -627,7 +639,8 @@ impl IllumTrainer {
     fn visibility_mesh(&self, frame: usize) -> PosedVisibilityMesh {
         let stage2 = self.stage2.as_ref().expect("F_vis is trained in stage 2");
         let v = self.mesh.vertex_count();
-        let posed = pose_refined(&self.frame_pose(frame, false).posed, stage2.offsets.clone());
+        let pose = self.frame_pose(frame, false);
+        let posed = pose_refined(&pose.posed, stage2.offsets.clone());
         let normals =
             host_points(&vertex_normals(posed.clone(), &self.mesh.model.faces).reshape([v, 3]));
         let placed = host_points(&posed.reshape([v, 3]));
@@ -645,6 +658,8 @@ impl IllumTrainer {
             placed,
             normals,
             height: self.mesh.height,
+            root: pose.root,
+            pose_vector: pose.pose_vector,
         }
     }
 }
@@ -656,6 +671,9 @@ struct PosedVisibilityMesh {
     placed: Vec<[f64; 3]>,
     normals: Vec<[f64; 3]>,
     height: f64,
+    /// F_vis's pose inputs (plain device): the root rotation and the pose vector.
+    root: Tensor<2>,
+    pose_vector: Tensor<1>,
 }
 
 impl PosedVisibilityMesh {
