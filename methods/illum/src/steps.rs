@@ -542,8 +542,8 @@ impl IllumTrainer {
     /// `visibility.warmup` F_vis steps on their own at the hand-over (our choice; see
     /// [`crate::config::VisibilitySchedule::warmup`]): step `i` takes training frame
     /// `i mod T` of a seeded shuffle, so every training pose is seen alike; each frame's posed
-    /// mesh, its BVH and its pose inputs are built once. Returns the mean BCE of the first and the last tenth
-    /// of the steps, or `None` when there are none (or F_vis is not in use).
+    /// mesh, its BVH and its pose inputs are built once. Returns the mean BCE of the first and
+    /// the last tenth of the steps, or `None` when there are none (or F_vis is not in use).
     pub fn visibility_warmup(&mut self) -> Option<(f64, f64)> {
         let steps = self.config.visibility.warmup;
         if steps == 0
