@@ -392,8 +392,8 @@ impl IllumTrainer {
         let net = self.visibility.valid();
         let (mut right, mut open, mut total) = (0usize, 0usize, 0usize);
         for frame in frames {
-            let labels = self.visibility_labels(frame.frame, 512, 0xE7A1 ^ frame.frame as u64);
             let pose = self.frame_pose(frame.frame, false);
+            let labels = self.visibility_labels(&pose, 512, 0xE7A1 ^ frame.frame as u64);
             let count = labels.open.len();
             let flat =
                 |v: &[[f64; 3]]| -> Vec<f32> { v.iter().flatten().map(|&x| x as f32).collect() };

@@ -522,7 +522,7 @@ impl IllumTrainer {
         if self.config.ablation.light_volume
             && self.config.visibility.source == VisibilitySource::Net
         {
-            self.visibility_step(&pose, target.frame, step_seed);
+            self.visibility_step(&pose, step_seed);
         }
         Ok(StepLosses {
             total: value,
@@ -532,10 +532,10 @@ impl IllumTrainer {
         })
     }
 
-    /// F_vis's own step (Eq. 3): BCE against ray-cast labels of this frame's posed refined
-    /// mesh. Returns the loss.
-    pub fn visibility_step(&mut self, pose: &FramePose, frame: usize, seed: u64) -> f64 {
-        let labels = self.visibility_labels(frame, self.config.visibility.labels, seed);
+    /// F_vis's own step (Eq. 3): BCE against ray-cast labels of the refined mesh in `pose`
+    /// (the image step's own pose, so the body is posed once a step). Returns the loss.
+    pub fn visibility_step(&mut self, pose: &FramePose, seed: u64) -> f64 {
+        let labels = self.visibility_labels(pose, self.config.visibility.labels, seed);
         self.fit_visibility(pose.root.clone(), pose.pose_vector.clone(), labels)
     }
 
@@ -564,8 +564,10 @@ impl IllumTrainer {
         for i in (1..order.len()).rev() {
             order.swap(i, rng.random_range(0..=i));
         }
-        let meshes: Vec<PosedVisibilityMesh> =
-            order.iter().map(|&f| self.visibility_mesh(f)).collect();
+        let meshes: Vec<PosedVisibilityMesh> = order
+            .iter()
+            .map(|&f| self.visibility_mesh(&self.frame_pose(f, false)))
+            .collect();
         // The pose inputs as constants of the autodiff device (F_vis's step needs no gradient
         // to the pose).
         let a = &self.autodiff;
@@ -624,23 +626,22 @@ impl IllumTrainer {
         value
     }
 
-    /// `count` ray-cast labels of frame `frame`'s posed refined mesh.
+    /// `count` ray-cast labels of the refined mesh in `pose` (either device).
     pub fn visibility_labels(
         &self,
-        frame: usize,
+        pose: &FramePose,
         count: usize,
         seed: u64,
     ) -> crate::visibility::VisibilityLabels {
-        self.visibility_mesh(frame).labels(count, seed)
+        self.visibility_mesh(pose).labels(count, seed)
     }
 
-    /// Frame `frame`'s posed refined mesh, its normals and its BVH, with the canonical
-    /// vertices the labels name.
-    fn visibility_mesh(&self, frame: usize) -> PosedVisibilityMesh {
+    /// The refined mesh in `pose` (either device; read as constants), its normals and its
+    /// BVH, with the canonical vertices the labels name.
+    fn visibility_mesh(&self, pose: &FramePose) -> PosedVisibilityMesh {
         let stage2 = self.stage2.as_ref().expect("F_vis is trained in stage 2");
         let v = self.mesh.vertex_count();
-        let pose = self.frame_pose(frame, false);
-        let posed = pose_refined(&pose.posed, stage2.offsets.clone());
+        let posed = pose_refined(&pose.posed, stage2.offsets.clone()).inner();
         let normals =
             host_points(&vertex_normals(posed.clone(), &self.mesh.model.faces).reshape([v, 3]));
         let placed = host_points(&posed.reshape([v, 3]));
@@ -658,8 +659,8 @@ impl IllumTrainer {
             placed,
             normals,
             height: self.mesh.height,
-            root: pose.root,
-            pose_vector: pose.pose_vector,
+            root: pose.root.clone().inner(),
+            pose_vector: pose.pose_vector.clone().inner(),
         }
     }
 }

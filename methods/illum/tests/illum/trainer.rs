@@ -381,8 +381,8 @@ fn fresh_visibility_loss(method: &Illum) -> f64 {
     let mut total = 0.0;
     for &k in &t.train {
         let frame = t.capture.frames[k].frame;
-        let labels = t.visibility_labels(frame, 256, 0xFE5E ^ frame as u64);
         let pose = t.frame_pose(frame, false);
+        let labels = t.visibility_labels(&pose, 256, 0xFE5E ^ frame as u64);
         let count = labels.open.len();
         let flat = |v: &[[f64; 3]]| -> Vec<f32> { v.iter().flatten().map(|&x| x as f32).collect() };
         let device = &t.device;
