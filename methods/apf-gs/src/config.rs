@@ -31,6 +31,13 @@ pub struct LossWeights {
     /// Eq. 7's `λ_bone`, `λ_limit`.
     pub bone: f64,
     pub limit: f64,
+    /// Whether σ's gradient reads `(1 − σ) λ_kine λ_limit L_limit` (the paper's Eq. 6). `false`
+    /// detaches σ in that product only: `L_limit` depends on θ alone, so through σ it can only
+    /// push σ up, and most where the prior's pose is wrong (README, "Not done yet").
+    pub sigma_reads_limit: bool,
+    /// What `L_sparse` reads: `"gated"`, the residual Δ the node adds (spec §4), or `"field"`,
+    /// F_φ's output before the gate.
+    pub sparsity_of: SparsityOf,
     /// The node mask term: BCE of each node type's alpha against `M_kine` / `M_acc` inside the
     /// people's boxes.
     pub mask: f64,
@@ -47,10 +54,22 @@ impl Default for LossWeights {
             kine: 0.1,
             bone: 1.0,
             limit: 1.0,
+            sigma_reads_limit: true,
+            sparsity_of: SparsityOf::Gated,
             mask: 0.1,
             depth: 0.01,
         }
     }
+}
+
+/// The residual Eq. 6's sparsity term reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SparsityOf {
+    /// `Δ = a(σ) F_φ`, what the node adds: `σ a(σ) S` falls with σ past the blend's turn.
+    Gated,
+    /// `F_φ`'s output before `a(σ)`: `σ S` rises with σ everywhere.
+    Field,
 }
 
 /// Learning rates of the networks (Adam, ε = 1e-8), decayed exponentially to 1/10.

@@ -52,26 +52,35 @@ pub struct PersonTerms {
     pub limit: Tensor<1>,
 }
 
-/// The weights of [`PersonTerms::total`].
+/// The weights of [`PersonTerms::total`]; `sigma_reads_limit = false` detaches σ in the
+/// `L_limit` product only (`loss.sigma_reads_limit`).
 pub struct TermWeights {
     pub sparse: f64,
     pub kine: f64,
     pub bone: f64,
     pub limit: f64,
+    pub sigma_reads_limit: bool,
 }
 
 impl PersonTerms {
     pub fn total(&self, w: &TermWeights) -> Tensor<1> {
-        let kine = self.bone.clone() * w.bone + self.limit.clone() * w.limit;
         let [rows, _] = self.sigma.dims();
-        if rows == 1 {
+        let (sparse, sigma) = if rows == 1 {
             let sigma = self.sigma.clone().reshape([1]);
-            return sigma.clone() * self.sparsity.clone() * w.sparse
-                + (sigma * -1.0 + 1.0) * kine * w.kine;
-        }
-        let sigma = self.sigma.clone().reshape([rows]);
-        let sparse = (sigma.clone() * self.sparsity.clone()).mean();
-        sparse * w.sparse + (sigma.mean() * -1.0 + 1.0) * kine * w.kine
+            (sigma.clone() * self.sparsity.clone(), sigma)
+        } else {
+            let sigma = self.sigma.clone().reshape([rows]);
+            ((sigma.clone() * self.sparsity.clone()).mean(), sigma.mean())
+        };
+        let one_minus = |s: Tensor<1>| s * -1.0 + 1.0;
+        let bone = self.bone.clone() * w.bone;
+        let limit = self.limit.clone() * w.limit;
+        let kine = if w.sigma_reads_limit {
+            one_minus(sigma) * (bone + limit)
+        } else {
+            one_minus(sigma.clone()) * bone + one_minus(sigma.detach()) * limit
+        };
+        sparse * w.sparse + kine * w.kine
     }
 }
 

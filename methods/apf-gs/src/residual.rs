@@ -45,28 +45,51 @@ pub struct GatedResidual {
 }
 
 /// The last residual: `[G, 3]` body-frame offsets, `[G, 4]` quaternion residuals, `[G, 3]`
-/// log-scale residuals, all gated; each Gaussian's σ `[G, 1]` where the gate is per Gaussian.
+/// log-scale residuals, all gated; each Gaussian's σ `[G, 1]` where the gate is per Gaussian;
+/// and `[G, 10]` F_φ's output before the gate (what `loss.sparsity_of = "field"` reads).
 #[derive(Clone)]
 pub struct Produced {
     pub offsets: Tensor<2>,
     pub rotations: Tensor<2>,
     pub log_scales: Tensor<2>,
     pub sigma: Option<Tensor<2>>,
+    pub ungated: Tensor<2>,
+}
+
+/// `‖δμ_i‖₁ / 0.01 m + ‖δq_i‖₁ + ‖δs_i‖₁` of each row of `[G, 3]`, `[G, 4]`, `[G, 3]`, `[G]`.
+fn sparsity_of(offsets: Tensor<2>, rotations: Tensor<2>, log_scales: Tensor<2>) -> Tensor<1> {
+    let [g, _] = offsets.dims();
+    (offsets.abs().sum_dim(1) / 0.01 + rotations.abs().sum_dim(1) + log_scales.abs().sum_dim(1))
+        .reshape([g])
 }
 
 impl Produced {
-    /// Each Gaussian's `‖δμ_i‖₁ / 0.01 m + ‖δq_i‖₁ + ‖δs_i‖₁`, `[G]`.
+    /// Each Gaussian's `‖δμ_i‖₁ / 0.01 m + ‖δq_i‖₁ + ‖δs_i‖₁` of the gated residual, `[G]`.
     pub fn sparsity_rows(&self) -> Tensor<1> {
-        let [g, _] = self.offsets.dims();
-        (self.offsets.clone().abs().sum_dim(1) / 0.01
-            + self.rotations.clone().abs().sum_dim(1)
-            + self.log_scales.clone().abs().sum_dim(1))
-        .reshape([g])
+        sparsity_of(
+            self.offsets.clone(),
+            self.rotations.clone(),
+            self.log_scales.clone(),
+        )
     }
 
     /// Eq. 6's `L_sparse` (spec §4): the mean of [`Self::sparsity_rows`].
     pub fn sparsity(&self) -> Tensor<1> {
         self.sparsity_rows().mean()
+    }
+
+    /// The same rows of F_φ's output before the gate (its offsets bounded as the gated ones
+    /// are): a sparsity whose σ-weight `σ S` has `∂/∂σ = S ≥ 0` at every σ, where the gated
+    /// one's `σ a(σ) S` falls with σ past the blend's turning point.
+    pub fn field_sparsity_rows(&self, max_offset: f64) -> Tensor<1> {
+        let [g, _] = self.ungated.dims();
+        let raw = self.ungated.clone();
+        let offsets = (raw.clone().slice([0..g, 0..3]) / max_offset).tanh() * max_offset;
+        sparsity_of(
+            offsets,
+            raw.clone().slice([0..g, 3..7]),
+            raw.slice([0..g, 7..10]),
+        )
     }
 }
 
@@ -114,13 +137,14 @@ pub fn encode_positions(
 /// body-frame (δμ, δq, δs).
 pub fn gate_outputs(raw: Tensor<2>, amplitude: Tensor<2>, max_offset: f64) -> Produced {
     let [g, _] = raw.dims();
-    let gated = raw * amplitude.expand([g, 10]);
+    let gated = raw.clone() * amplitude.expand([g, 10]);
     let offsets = (gated.clone().slice([0..g, 0..3]) / max_offset).tanh() * max_offset;
     Produced {
         offsets,
         rotations: gated.clone().slice([0..g, 3..7]),
         log_scales: gated.slice([0..g, 7..10]),
         sigma: None,
+        ungated: raw,
     }
 }
 

@@ -5,7 +5,7 @@
 //! parent joint. Each decision is recorded with its reason.
 
 use crate::accessory::{AccessoryDeformation, AccessoryNode};
-use crate::config::ApfConfig;
+use crate::config::{ApfConfig, SparsityOf};
 use crate::data::ApfCapture;
 use crate::decouple::wants_accessory;
 use crate::error::ApfError;
@@ -511,9 +511,13 @@ pub fn pose_human(
     let splats = residual.apply(posed.splats);
     let regressed = node.regress_joints(splats.means.clone());
     // Eq. 6's weights: the person-frame's σ, or each Gaussian's on its own sparsity row.
+    let rows = match config.loss.sparsity_of {
+        SparsityOf::Gated => produced.sparsity_rows(),
+        SparsityOf::Field => produced.field_sparsity_rows(config.residual.max_offset),
+    };
     let (sigma, sparsity) = match &produced.sigma {
-        Some(per_gaussian) => (per_gaussian.clone(), produced.sparsity_rows()),
-        None => (guided.sigma.clone(), produced.sparsity()),
+        Some(per_gaussian) => (per_gaussian.clone(), rows),
+        None => (guided.sigma.clone(), rows.mean()),
     };
     let terms = PersonTerms {
         sigma,

@@ -290,6 +290,7 @@ impl ApfTrainer {
             kine: self.config.loss.kine,
             bone: self.config.loss.bone,
             limit: self.config.loss.limit,
+            sigma_reads_limit: self.config.loss.sigma_reads_limit,
         };
         for (_, terms) in &composed.terms {
             loss = loss + terms.total(&weights);

@@ -4,6 +4,7 @@
 //! gradients agree with finite differences.
 
 use burn::tensor::{Device, Distribution, Tensor, TensorData};
+use splatzoo_apf_gs::gate::GateConfig;
 use splatzoo_apf_gs::loss::{PersonTerms, TermWeights, limit_loss, relative_bone_loss};
 use splatzoo_apf_gs::residual::{gate_outputs, world_residual};
 use splatzoo_datasets::synth::rng::Rng;
@@ -119,6 +120,7 @@ fn sigma_gradient_is_the_difference_of_the_two_regularisers() {
         kine: 0.1,
         bone: 1.0,
         limit: 1.0,
+        sigma_reads_limit: true,
     };
     let grads = terms.total(&w).backward();
     let g = f64::from(host_f32(&sigma.grad(&grads).expect("σ has a gradient"))[0]);
@@ -126,6 +128,118 @@ fn sigma_gradient_is_the_difference_of_the_two_regularisers() {
     assert!(
         (g - expected).abs() < 1e-6,
         "seed {seed}: {g} vs {expected}"
+    );
+}
+
+/// `loss.sigma_reads_limit = false`: the loss is the same number, and σ's gradient loses
+/// exactly the limit term's `−λ_k λ_l L_limit` (the bone term's pull stays).
+#[test]
+fn detaching_sigma_in_the_limit_product_leaves_the_bone_pull_alone() {
+    let seed = crate::fresh_seed();
+    let mut rng = Rng(seed);
+    let device = Device::flex();
+    let (ls, lb, ll) = (
+        rng.range(0.0, 2.0),
+        rng.range(0.0, 2.0),
+        rng.range(0.1, 2.0),
+    );
+    let s0 = rng.range(0.05, 0.95);
+    let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
+    let run = |reads: bool| {
+        let sigma = Tensor::<2>::full([1, 1], s0, &device)
+            .autodiff()
+            .require_grad();
+        let terms = PersonTerms {
+            sigma: sigma.clone(),
+            sparsity: constant(ls),
+            bone: constant(lb),
+            limit: constant(ll),
+        };
+        let w = TermWeights {
+            sparse: 1e-3,
+            kine: 0.1,
+            bone: 1.0,
+            limit: 0.5,
+            sigma_reads_limit: reads,
+        };
+        let total = terms.total(&w);
+        let value = scalar(total.clone().inner());
+        let grads = total.backward();
+        let g = f64::from(host_f32(&sigma.grad(&grads).expect("σ has a gradient"))[0]);
+        (value, g)
+    };
+    let (paper, paper_grad) = run(true);
+    let (detached, detached_grad) = run(false);
+    assert!(
+        (paper - detached).abs() < 1e-6,
+        "seed {seed}: {paper} vs {detached}"
+    );
+    let expected = 1e-3 * ls - 0.1 * lb;
+    assert!(
+        (detached_grad - expected).abs() < 1e-6,
+        "seed {seed}: {detached_grad} vs {expected}"
+    );
+    assert!(
+        (paper_grad - detached_grad + 0.1 * 0.5 * ll).abs() < 1e-6,
+        "seed {seed}: the paper's gradient {paper_grad} is the detached one less λ_k λ_l L_limit"
+    );
+}
+
+/// `loss.sparsity_of`: on the blend `a(σ) = 1 − 0.9σ`, the gated sparsity's σ-weighted term
+/// `σ S(a(σ) F)` falls with σ near 1 (it cannot pull σ down where the residual is large), and
+/// the field's `σ S(F)` rises at every σ with slope `S(F)`, checked against a scalar reference.
+#[test]
+fn field_sparsity_pulls_sigma_down_at_every_sigma_where_the_gated_one_turns() {
+    let seed = crate::fresh_seed();
+    let mut rng = Rng(seed);
+    let device = Device::flex();
+    let g = 5;
+    let max_offset = 0.25;
+    let raw: Vec<f64> = (0..10 * g).map(|_| 0.02 * rng.normal()).collect();
+    let gate = GateConfig::default();
+    let slope = |field: bool, s: f64| {
+        let sigma = Tensor::<2>::full([1, 1], s, &device)
+            .autodiff()
+            .require_grad();
+        let f = Tensor::<2>::from_data(
+            TensorData::new(raw.iter().map(|&v| v as f32).collect::<Vec<_>>(), [g, 10]),
+            &device,
+        )
+        .autodiff();
+        let produced = gate_outputs(f, gate.amplitude(sigma.clone()), max_offset);
+        let rows = if field {
+            produced.field_sparsity_rows(max_offset)
+        } else {
+            produced.sparsity_rows()
+        };
+        let grads = (sigma.clone().reshape([1]) * rows.mean()).backward();
+        f64::from(host_f32(&sigma.grad(&grads).expect("σ has a gradient"))[0])
+    };
+    let reference: f64 = (0..g)
+        .map(|i| {
+            let r = &raw[10 * i..10 * i + 10];
+            let offsets: f64 = r[..3]
+                .iter()
+                .map(|&v| ((v / max_offset).tanh() * max_offset).abs())
+                .sum();
+            offsets / 0.01 + r[3..].iter().map(|v| v.abs()).sum::<f64>()
+        })
+        .sum::<f64>()
+        / g as f64;
+    for s in [0.1, 0.5, 0.9] {
+        let got = slope(true, s);
+        assert!(
+            (got - reference).abs() < 1e-4 * reference.max(1.0),
+            "seed {seed}, σ = {s}: the field's slope {got} vs S(F) = {reference}"
+        );
+    }
+    assert!(
+        slope(false, 0.2) > 0.0,
+        "seed {seed}: gated slope at σ = 0.2"
+    );
+    assert!(
+        slope(false, 0.9) < 0.0,
+        "seed {seed}: the gated term turns past σ ≈ 0.56, so at 0.9 it falls"
     );
 }
 
@@ -146,6 +260,7 @@ fn per_gaussian_sigma_gradients_are_their_rows_against_the_kinematics() {
         kine: 0.1,
         bone: 1.0,
         limit: 1.0,
+        sigma_reads_limit: true,
     };
     let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
     let sigma = Tensor::<2>::from_data(TensorData::new(sigmas.clone(), [g, 1]), &device)

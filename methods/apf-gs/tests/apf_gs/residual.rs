@@ -63,6 +63,7 @@ fn the_residual_is_added_in_the_body_frame_then_carried_by_the_root() {
         rotations: tensor2(f32s(&dq), [g, 4], &device),
         log_scales: tensor2(f32s(&ds), [g, 3], &device),
         sigma: None,
+        ungated: Tensor::zeros([g, 10], &device),
     };
     let root_t = tensor2(f32s(&root.concat()), [3, 3], &device);
     let residual = world_residual(&posed, &produced, root_t);
