@@ -38,6 +38,10 @@ pub struct LossWeights {
     /// What `L_sparse` reads: `"gated"`, the residual Δ the node adds (spec §4), or `"field"`,
     /// F_φ's output before the gate.
     pub sparsity_of: SparsityOf,
+    /// `λ_σ` of `λ_σ (σ − σ₀)²`, σ₀ = `network.initial_sigma` (our choice, not the paper's; 0
+    /// = off): Eq. 6 is linear in σ, so without a term that curves it σ runs to a bound or
+    /// sits where its two regularisers cancel (README, "What moves σ").
+    pub sigma_prior: f64,
     /// The node mask term: BCE of each node type's alpha against `M_kine` / `M_acc` inside the
     /// people's boxes.
     pub mask: f64,
@@ -56,6 +60,7 @@ impl Default for LossWeights {
             limit: 1.0,
             sigma_reads_limit: true,
             sparsity_of: SparsityOf::Gated,
+            sigma_prior: 0.0,
             mask: 0.1,
             depth: 0.01,
         }
@@ -252,6 +257,7 @@ impl MethodConfig for ApfConfig {
             ("loss.kine", self.loss.kine),
             ("loss.bone", self.loss.bone),
             ("loss.limit", self.loss.limit),
+            ("loss.sigma_prior", self.loss.sigma_prior),
             ("loss.mask", self.loss.mask),
             ("loss.depth", self.loss.depth),
             ("residual.max_offset", self.residual.max_offset),

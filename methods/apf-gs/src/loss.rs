@@ -53,13 +53,16 @@ pub struct PersonTerms {
 }
 
 /// The weights of [`PersonTerms::total`]; `sigma_reads_limit = false` detaches σ in the
-/// `L_limit` product only (`loss.sigma_reads_limit`).
+/// `L_limit` product only (`loss.sigma_reads_limit`); `sigma_prior` is `λ_σ` of
+/// `λ_σ mean_i (σ_i − σ₀)²` with `σ₀ = sigma_start` (`loss.sigma_prior`, off at 0).
 pub struct TermWeights {
     pub sparse: f64,
     pub kine: f64,
     pub bone: f64,
     pub limit: f64,
     pub sigma_reads_limit: bool,
+    pub sigma_prior: f64,
+    pub sigma_start: f64,
 }
 
 impl PersonTerms {
@@ -80,7 +83,12 @@ impl PersonTerms {
         } else {
             one_minus(sigma.clone()) * bone + one_minus(sigma.detach()) * limit
         };
-        sparse * w.sparse + kine * w.kine
+        let total = sparse * w.sparse + kine * w.kine;
+        if w.sigma_prior == 0.0 {
+            return total;
+        }
+        let prior = (self.sigma.clone() - w.sigma_start).powi_scalar(2).mean();
+        total + prior * w.sigma_prior
     }
 }
 

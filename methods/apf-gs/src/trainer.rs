@@ -291,6 +291,8 @@ impl ApfTrainer {
             bone: self.config.loss.bone,
             limit: self.config.loss.limit,
             sigma_reads_limit: self.config.loss.sigma_reads_limit,
+            sigma_prior: self.config.loss.sigma_prior,
+            sigma_start: self.config.network.initial_sigma,
         };
         for (_, terms) in &composed.terms {
             loss = loss + terms.total(&weights);

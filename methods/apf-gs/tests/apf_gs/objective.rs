@@ -121,6 +121,8 @@ fn sigma_gradient_is_the_difference_of_the_two_regularisers() {
         bone: 1.0,
         limit: 1.0,
         sigma_reads_limit: true,
+        sigma_prior: 0.0,
+        sigma_start: 0.8,
     };
     let grads = terms.total(&w).backward();
     let g = f64::from(host_f32(&sigma.grad(&grads).expect("σ has a gradient"))[0]);
@@ -161,6 +163,8 @@ fn detaching_sigma_in_the_limit_product_leaves_the_bone_pull_alone() {
             bone: 1.0,
             limit: 0.5,
             sigma_reads_limit: reads,
+            sigma_prior: 0.0,
+            sigma_start: 0.8,
         };
         let total = terms.total(&w);
         let value = scalar(total.clone().inner());
@@ -182,6 +186,55 @@ fn detaching_sigma_in_the_limit_product_leaves_the_bone_pull_alone() {
     assert!(
         (paper_grad - detached_grad + 0.1 * 0.5 * ll).abs() < 1e-6,
         "seed {seed}: the paper's gradient {paper_grad} is the detached one less λ_k λ_l L_limit"
+    );
+}
+
+/// `loss.sigma_prior`: `λ_σ (σ − σ₀)²` adds `2 λ_σ (σ − σ₀)` to σ's slope, so Eq. 6's
+/// linear objective gets an interior minimum `σ* = σ₀ − (λ_s L_sparse − λ_k L_kine) / 2λ_σ`,
+/// where σ's gradient vanishes.
+#[test]
+fn the_sigma_prior_gives_eq_6_an_interior_minimum() {
+    let seed = crate::fresh_seed();
+    let mut rng = Rng(seed);
+    let device = Device::flex();
+    let (ls, lb, ll) = (
+        rng.range(0.0, 2.0),
+        rng.range(0.0, 0.2),
+        rng.range(0.0, 0.2),
+    );
+    let w = TermWeights {
+        sparse: 1e-3,
+        kine: 0.1,
+        bone: 1.0,
+        limit: 1.0,
+        sigma_reads_limit: true,
+        sigma_prior: rng.range(0.5, 2.0),
+        sigma_start: 0.8,
+    };
+    let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
+    let slope_at = |s: f64| {
+        let sigma = Tensor::<2>::full([1, 1], s, &device)
+            .autodiff()
+            .require_grad();
+        let terms = PersonTerms {
+            sigma: sigma.clone(),
+            sparsity: constant(ls),
+            bone: constant(lb),
+            limit: constant(ll),
+        };
+        let grads = terms.total(&w).backward();
+        f64::from(host_f32(&sigma.grad(&grads).expect("σ has a gradient"))[0])
+    };
+    let linear = w.sparse * ls - w.kine * (w.bone * lb + w.limit * ll);
+    let s = rng.range(0.05, 0.95);
+    let want = linear + 2.0 * w.sigma_prior * (s - w.sigma_start);
+    let got = slope_at(s);
+    assert!((got - want).abs() < 1e-5, "seed {seed}: {got} vs {want}");
+    let minimum = w.sigma_start - linear / (2.0 * w.sigma_prior);
+    let at_minimum = slope_at(minimum);
+    assert!(
+        at_minimum.abs() < 1e-5,
+        "seed {seed}: slope {at_minimum} at σ* = {minimum}"
     );
 }
 
@@ -261,6 +314,8 @@ fn per_gaussian_sigma_gradients_are_their_rows_against_the_kinematics() {
         bone: 1.0,
         limit: 1.0,
         sigma_reads_limit: true,
+        sigma_prior: 0.0,
+        sigma_start: 0.8,
     };
     let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
     let sigma = Tensor::<2>::from_data(TensorData::new(sigmas.clone(), [g, 1]), &device)
