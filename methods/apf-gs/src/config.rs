@@ -33,7 +33,7 @@ pub struct LossWeights {
     pub limit: f64,
     /// Whether σ's gradient reads `(1 − σ) λ_kine λ_limit L_limit` (the paper's Eq. 6). `false`
     /// detaches σ in that product only: `L_limit` depends on θ alone, so through σ it can only
-    /// push σ up, and most where the prior's pose is wrong (README, "Not done yet").
+    /// push σ up, and most where the prior's pose is wrong (README, "What moves σ").
     pub sigma_reads_limit: bool,
     /// What `L_sparse` reads: `"gated"`, the residual Δ the node adds (spec §4), or `"field"`,
     /// F_φ's output before the gate.

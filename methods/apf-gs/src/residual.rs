@@ -64,7 +64,8 @@ fn sparsity_of(offsets: Tensor<2>, rotations: Tensor<2>, log_scales: Tensor<2>) 
 }
 
 impl Produced {
-    /// Each Gaussian's `‖δμ_i‖₁ / 0.01 m + ‖δq_i‖₁ + ‖δs_i‖₁` of the gated residual, `[G]`.
+    /// Each Gaussian's `‖δμ_i‖₁ / 0.01 m + ‖δq_i‖₁ + ‖δs_i‖₁` of the gated residual, `[G]`;
+    /// their mean is Eq. 6's `L_sparse` (spec §4).
     pub fn sparsity_rows(&self) -> Tensor<1> {
         sparsity_of(
             self.offsets.clone(),
@@ -73,20 +74,14 @@ impl Produced {
         )
     }
 
-    /// Eq. 6's `L_sparse` (spec §4): the mean of [`Self::sparsity_rows`].
-    pub fn sparsity(&self) -> Tensor<1> {
-        self.sparsity_rows().mean()
-    }
-
     /// The same rows of F_φ's output before the gate (its offsets bounded as the gated ones
     /// are): a sparsity whose σ-weight `σ S` has `∂/∂σ = S ≥ 0` at every σ, where the gated
     /// one's `σ a(σ) S` falls with σ past the blend's turning point.
     pub fn field_sparsity_rows(&self, max_offset: f64) -> Tensor<1> {
         let [g, _] = self.ungated.dims();
         let raw = self.ungated.clone();
-        let offsets = (raw.clone().slice([0..g, 0..3]) / max_offset).tanh() * max_offset;
         sparsity_of(
-            offsets,
+            bounded_offsets(raw.clone().slice([0..g, 0..3]), max_offset),
             raw.clone().slice([0..g, 3..7]),
             raw.slice([0..g, 7..10]),
         )
@@ -133,14 +128,18 @@ pub fn encode_positions(
     frequency_encoding(normalise_positions(means, centre, half_extent), levels)
 }
 
+/// `r_max · tanh(δμ / r_max)` of `[G, 3]` offsets: each component bounded by `max_offset`.
+fn bounded_offsets(offsets: Tensor<2>, max_offset: f64) -> Tensor<2> {
+    (offsets / max_offset).tanh() * max_offset
+}
+
 /// Raw field outputs `[G, 10]` gated by `amplitude` (`[1, 1]`, or `[G, 1]` per Gaussian) into
 /// body-frame (δμ, δq, δs).
 pub fn gate_outputs(raw: Tensor<2>, amplitude: Tensor<2>, max_offset: f64) -> Produced {
     let [g, _] = raw.dims();
     let gated = raw.clone() * amplitude.expand([g, 10]);
-    let offsets = (gated.clone().slice([0..g, 0..3]) / max_offset).tanh() * max_offset;
     Produced {
-        offsets,
+        offsets: bounded_offsets(gated.clone().slice([0..g, 0..3]), max_offset),
         rotations: gated.clone().slice([0..g, 3..7]),
         log_scales: gated.slice([0..g, 7..10]),
         sigma: None,

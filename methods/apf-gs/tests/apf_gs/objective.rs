@@ -95,27 +95,9 @@ fn the_limit_term_is_zero_inside_and_quadratic_outside() {
     assert!((ten / five - 4.0).abs() < 0.05, "quadratic: {five} → {ten}");
 }
 
-#[test]
-fn sigma_gradient_is_the_difference_of_the_two_regularisers() {
-    let seed = crate::fresh_seed();
-    let mut rng = Rng(seed);
-    let device = Device::flex();
-    let (ls, lb, ll) = (
-        rng.range(0.0, 2.0),
-        rng.range(0.0, 2.0),
-        rng.range(0.0, 2.0),
-    );
-    let sigma = Tensor::<2>::full([1, 1], rng.range(0.05, 0.95), &device)
-        .autodiff()
-        .require_grad();
-    let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
-    let terms = PersonTerms {
-        sigma: sigma.clone(),
-        sparsity: constant(ls),
-        bone: constant(lb),
-        limit: constant(ll),
-    };
-    let w = TermWeights {
+/// The paper's weights (`λ_sparse` 1e-3, `λ_kine` 0.1, `λ_bone` = `λ_limit` = 1), no σ prior.
+fn paper_weights() -> TermWeights {
+    TermWeights {
         sparse: 1e-3,
         kine: 0.1,
         bone: 1.0,
@@ -123,9 +105,41 @@ fn sigma_gradient_is_the_difference_of_the_two_regularisers() {
         sigma_reads_limit: true,
         sigma_prior: 0.0,
         sigma_start: 0.8,
+    }
+}
+
+/// One person-frame's Eq. 6 total at σ = `s` with constant `(L_sparse, L_bone, L_limit)`:
+/// its value and `∂/∂σ`.
+fn total_and_sigma_slope(w: &TermWeights, s: f64, (ls, lb, ll): (f64, f64, f64)) -> (f64, f64) {
+    let device = Device::flex();
+    let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
+    let sigma = Tensor::<2>::full([1, 1], s, &device)
+        .autodiff()
+        .require_grad();
+    let terms = PersonTerms {
+        sigma: sigma.clone(),
+        sparsity: constant(ls),
+        bone: constant(lb),
+        limit: constant(ll),
     };
-    let grads = terms.total(&w).backward();
-    let g = f64::from(host_f32(&sigma.grad(&grads).expect("σ has a gradient"))[0]);
+    let total = terms.total(w);
+    let value = scalar(total.clone().inner());
+    let grads = total.backward();
+    let slope = f64::from(host_f32(&sigma.grad(&grads).expect("σ has a gradient"))[0]);
+    (value, slope)
+}
+
+#[test]
+fn sigma_gradient_is_the_difference_of_the_two_regularisers() {
+    let seed = crate::fresh_seed();
+    let mut rng = Rng(seed);
+    let (ls, lb, ll) = (
+        rng.range(0.0, 2.0),
+        rng.range(0.0, 2.0),
+        rng.range(0.0, 2.0),
+    );
+    let w = paper_weights();
+    let (_, g) = total_and_sigma_slope(&w, rng.range(0.05, 0.95), (ls, lb, ll));
     let expected = w.sparse * ls - w.kine * (w.bone * lb + w.limit * ll);
     assert!(
         (g - expected).abs() < 1e-6,
@@ -139,38 +153,20 @@ fn sigma_gradient_is_the_difference_of_the_two_regularisers() {
 fn detaching_sigma_in_the_limit_product_leaves_the_bone_pull_alone() {
     let seed = crate::fresh_seed();
     let mut rng = Rng(seed);
-    let device = Device::flex();
-    let (ls, lb, ll) = (
+    let terms = (
         rng.range(0.0, 2.0),
         rng.range(0.0, 2.0),
         rng.range(0.1, 2.0),
     );
+    let (ls, lb, ll) = terms;
     let s0 = rng.range(0.05, 0.95);
-    let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
     let run = |reads: bool| {
-        let sigma = Tensor::<2>::full([1, 1], s0, &device)
-            .autodiff()
-            .require_grad();
-        let terms = PersonTerms {
-            sigma: sigma.clone(),
-            sparsity: constant(ls),
-            bone: constant(lb),
-            limit: constant(ll),
-        };
         let w = TermWeights {
-            sparse: 1e-3,
-            kine: 0.1,
-            bone: 1.0,
             limit: 0.5,
             sigma_reads_limit: reads,
-            sigma_prior: 0.0,
-            sigma_start: 0.8,
+            ..paper_weights()
         };
-        let total = terms.total(&w);
-        let value = scalar(total.clone().inner());
-        let grads = total.backward();
-        let g = f64::from(host_f32(&sigma.grad(&grads).expect("σ has a gradient"))[0]);
-        (value, g)
+        total_and_sigma_slope(&w, s0, terms)
     };
     let (paper, paper_grad) = run(true);
     let (detached, detached_grad) = run(false);
@@ -196,35 +192,17 @@ fn detaching_sigma_in_the_limit_product_leaves_the_bone_pull_alone() {
 fn the_sigma_prior_gives_eq_6_an_interior_minimum() {
     let seed = crate::fresh_seed();
     let mut rng = Rng(seed);
-    let device = Device::flex();
-    let (ls, lb, ll) = (
+    let terms = (
         rng.range(0.0, 2.0),
         rng.range(0.0, 0.2),
         rng.range(0.0, 0.2),
     );
+    let (ls, lb, ll) = terms;
     let w = TermWeights {
-        sparse: 1e-3,
-        kine: 0.1,
-        bone: 1.0,
-        limit: 1.0,
-        sigma_reads_limit: true,
         sigma_prior: rng.range(0.5, 2.0),
-        sigma_start: 0.8,
+        ..paper_weights()
     };
-    let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
-    let slope_at = |s: f64| {
-        let sigma = Tensor::<2>::full([1, 1], s, &device)
-            .autodiff()
-            .require_grad();
-        let terms = PersonTerms {
-            sigma: sigma.clone(),
-            sparsity: constant(ls),
-            bone: constant(lb),
-            limit: constant(ll),
-        };
-        let grads = terms.total(&w).backward();
-        f64::from(host_f32(&sigma.grad(&grads).expect("σ has a gradient"))[0])
-    };
+    let slope_at = |s: f64| total_and_sigma_slope(&w, s, terms).1;
     let linear = w.sparse * ls - w.kine * (w.bone * lb + w.limit * ll);
     let s = rng.range(0.05, 0.95);
     let want = linear + 2.0 * w.sigma_prior * (s - w.sigma_start);
@@ -308,15 +286,7 @@ fn per_gaussian_sigma_gradients_are_their_rows_against_the_kinematics() {
     let sigmas: Vec<f32> = (0..g).map(|_| rng.range(0.05, 0.95) as f32).collect();
     let rows: Vec<f32> = (0..g).map(|_| rng.range(0.0, 2.0) as f32).collect();
     let (lb, ll) = (rng.range(0.0, 2.0), rng.range(0.0, 2.0));
-    let w = TermWeights {
-        sparse: 1e-3,
-        kine: 0.1,
-        bone: 1.0,
-        limit: 1.0,
-        sigma_reads_limit: true,
-        sigma_prior: 0.0,
-        sigma_start: 0.8,
-    };
+    let w = paper_weights();
     let constant = |v: f64| Tensor::<1>::from_floats([v as f32], &device).autodiff();
     let sigma = Tensor::<2>::from_data(TensorData::new(sigmas.clone(), [g, 1]), &device)
         .autodiff()
